@@ -1,0 +1,45 @@
+// biodem command line: one program, sub-commands (SPEC 11).
+#include <CLI/CLI.hpp>
+#include <exception>
+#include <iostream>
+#include <utility>
+#include <vector>
+
+#include "commands.hpp"
+#include "core/error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"biodem: DEM of cohesive, elongated biomass powders in a rotating drum"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "biodem 0.1.0");
+
+  std::vector<std::pair<CLI::App*, biodem::cli::Action>> actions;
+  auto add = [&](auto reg) {
+    const std::size_t before = app.get_subcommands({}).size();
+    biodem::cli::Action a = reg(app);
+    actions.emplace_back(app.get_subcommands({}).at(before), std::move(a));
+  };
+  add(biodem::cli::register_run);
+  add(biodem::cli::register_check);
+  add(biodem::cli::register_analyze);
+  add(biodem::cli::register_compare);
+  add(biodem::cli::register_video);
+  add(biodem::cli::register_calibrate);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (auto& [sub, action] : actions)
+      if (sub->parsed()) return action();
+  } catch (const biodem::Error& e) {
+    std::cerr << "biodem: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "biodem: internal error: " << e.what() << "\n";
+    return 3;
+  }
+  return 1;
+}

@@ -1,0 +1,1 @@
+#include "analysis/centroid_angle.hpp"

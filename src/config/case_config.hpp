@@ -1,0 +1,157 @@
+// Plain configuration structs: what a case file means, after parsing and validation by
+// src/io/case_parser. The engine is built from these and never sees TOML. All quantities SI.
+// Indices (material, shape) refer to positions in the CaseConfig vectors.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace biodem::config {
+
+using Vec3d = std::array<double, 3>;
+
+struct RunConfig {
+  double dt_s = 0.0;
+  std::uint64_t seed = 1;
+  Vec3d gravity_m_s2{0.0, -9.81, 0.0};
+  bool allow_large_dt = false;         // dt may exceed 40 % of the Rayleigh time
+  bool allow_initial_overlap = false;  // explicit particles may start overlapping
+  std::optional<double> skin_m;        // Verlet skin; default: half the smallest sphere diameter
+};
+
+struct Material {
+  std::string name;
+  std::optional<double> density_kg_m3;  // required for particle materials, unused for walls
+  double young_pa = 0.0;
+  double poisson = 0.0;
+};
+
+/// Contact properties of a pair of materials (SPEC 2.1): symmetric.
+struct PairTable {
+  std::size_t material_a = 0, material_b = 0;
+  double restitution = 0.0;
+  double sliding_friction = 0.0;
+  double rolling_friction = 0.0;              // EPSD2 coefficient; 0 disables
+  double cohesion_energy_density_j_m3 = 0.0;  // SJKR; 0 disables
+};
+
+enum class ShapeKind { Sphere, Needle, Clump };
+
+struct ClumpSphere {
+  Vec3d center_m{};  // in the clump's own frame (the parser does not recentre)
+  double radius_m = 0.0;
+};
+
+struct Shape {
+  std::string name;
+  ShapeKind kind = ShapeKind::Sphere;
+  double diameter_m = 0.0;      // sphere
+  double d50_m = 0.0;           // needle: sphere diameter (median minimum Feret diameter)
+  double aspect_ratio = 1.0;    // needle: a50 = min/max Feret, in (0, 1]
+  double overlap_factor = 0.2;  // needle: c in [0, 0.5]
+  std::vector<ClumpSphere> spheres;  // clump
+};
+
+struct Population {
+  std::size_t shape = 0;
+  std::size_t material = 0;
+  double volume_fraction = 1.0;
+};
+
+struct Insertion {
+  std::optional<std::uint64_t> count;
+  std::optional<double> fill_fraction;      // bed bulk volume / drum volume
+  double bulk_solid_fraction = 0.6;         // converts fill_fraction to a count
+  double coarse_grain = 1.0;                // multiplies every particle length
+  std::uint64_t max_attempts_per_particle = 1000;
+  std::optional<double> wave_fall_s;        // time between insertion waves; default: free fall over the drum diameter
+};
+
+enum class AxialBoundary { EndPlates, Periodic };
+
+struct Drum {
+  double diameter_m = 0.0;
+  double width_m = 0.0;
+  double rpm = 0.0;  // positive: counter-clockwise seen from +z (bed rises at +x)
+  std::size_t mantle_material = 0;
+  std::optional<std::size_t> endplate_material;  // absent when periodic
+  AxialBoundary axial_boundary = AxialBoundary::EndPlates;
+};
+
+enum class WallKind { Plane, Disc, Cylinder };
+
+struct Wall {
+  WallKind kind = WallKind::Plane;
+  std::size_t material = 0;
+  Vec3d point_m{};        // plane/disc: a point on it (disc: its centre); cylinder: a point on the axis
+  Vec3d normal{0, 0, 1};  // plane/disc: unit normal pointing to the particle side; cylinder: axis direction
+  double radius_m = 0.0;  // disc and cylinder radius
+  // Optional finite extent of a cylinder along its axis, measured from point_m (0 = infinite).
+  double length_m = 0.0;
+  // Prescribed rotation about the wall's own symmetry axis (through point_m, along normal/axis):
+  // the geometry does not move, the surface velocity is omega x r. rad/s, sign: right-hand rule
+  // about `normal`.
+  double angular_velocity_rad_s = 0.0;
+};
+
+struct Particle {
+  std::size_t shape = 0;
+  std::size_t material = 0;
+  Vec3d position_m{};
+  Vec3d velocity_m_s{};
+  Vec3d angular_velocity_rad_s{};
+  std::array<double, 4> orientation{1, 0, 0, 0};  // w, x, y, z (normalised by the parser)
+};
+
+/// Optional periodic box for explicit scenes (and the drum's periodic axis is derived from [drum]).
+struct Domain {
+  Vec3d min_m{};
+  Vec3d max_m{};
+  std::array<bool, 3> periodic{false, false, false};
+};
+
+enum class PhaseLength { Steps, Duration, Revolutions };
+
+struct Phase {
+  std::string name;
+  PhaseLength length = PhaseLength::Steps;
+  std::uint64_t steps = 0;
+  double duration_s = 0.0;
+  double revolutions = 0.0;
+  bool rotate = false;  // drum walls turn during this phase
+  // Settle criterion: the phase ends early once the mean kinetic energy per body has stayed
+  // below this value for `settle_hold_s` (after at least min_duration_s).
+  std::optional<double> until_mean_kinetic_energy_j;
+  std::optional<double> max_duration_s;  // cap for criterion phases
+  double min_duration_s = 0.0;
+  double settle_hold_s = 0.01;
+};
+
+struct Output {
+  double sample_hz = 50.0;
+  std::optional<double> snapshot_every_s;    // absent: no snapshots except the final one
+  std::optional<double> checkpoint_every_s;  // absent: no periodic checkpoints
+  bool trace = false;
+  std::optional<double> frame_every_s;       // back-lit cross-section frames
+  std::uint32_t frame_size_px = 512;
+};
+
+struct CaseConfig {
+  std::string source_path;
+  RunConfig run;
+  std::vector<Material> materials;
+  std::vector<PairTable> pairs;
+  std::vector<Shape> shapes;
+  std::vector<Population> populations;
+  std::optional<Insertion> insertion;
+  std::optional<Drum> drum;
+  std::vector<Wall> walls;
+  std::vector<Particle> particles;
+  std::optional<Domain> domain;
+  std::vector<Phase> phases;
+  Output output;
+};
+
+}  // namespace biodem::config
