@@ -1,0 +1,59 @@
+// The geometry and kinematics of one contact, computed once and handed to every sub-model
+// (STYLE.md 3). Conventions: `normal` is the unit vector from body j (or the wall) to body i;
+// `overlap_m` = R_i + R_j - distance (> 0 in contact); `v_rel` is the velocity of i's surface
+// minus j's surface (or the wall's) at the contact point, including omega x r terms;
+// `w_rel` = omega_i - omega_j (the wall's angular velocity for a wall).
+#pragma once
+#include "core/vec3.hpp"
+
+namespace biodem::contact {
+
+struct ContactGeometry {
+  Vec3 normal;
+  double overlap_m = 0.0;
+  double distance_m = 0.0;  // centre distance (pair) or centre-to-surface distance (wall)
+  double r_eff_m = 0.0;     // R*
+  double m_eff_kg = 0.0;    // m* (body masses)
+  Vec3 lever_i;             // from the centre of sphere i to the contact point
+  Vec3 lever_j;             // from the centre of sphere j to the contact point (unused for walls)
+  Vec3 v_rel;
+  Vec3 w_rel;
+};
+
+/// Sphere-sphere geometry. Contact point: the middle of the overlap along the normal, i.e. at
+/// distance r_i - delta/2 from centre i.
+inline ContactGeometry sphere_sphere_geometry(const Vec3& d_ij, double dist, double r_i, double r_j,
+                                              double m_i, double m_j, const Vec3& v_i, const Vec3& v_j,
+                                              const Vec3& w_i, const Vec3& w_j) {
+  ContactGeometry g;
+  g.distance_m = dist;
+  g.normal = d_ij / dist;
+  g.overlap_m = r_i + r_j - dist;
+  g.r_eff_m = r_i * r_j / (r_i + r_j);
+  g.m_eff_kg = m_i * m_j / (m_i + m_j);
+  g.lever_i = -(r_i - 0.5 * g.overlap_m) * g.normal;
+  g.lever_j = (r_j - 0.5 * g.overlap_m) * g.normal;
+  g.v_rel = (v_i + cross(w_i, g.lever_i)) - (v_j + cross(w_j, g.lever_j));
+  g.w_rel = w_i - w_j;
+  return g;
+}
+
+/// Sphere-wall geometry: R_j, m_j -> infinity, so R* = r_i and m* = m_i. `gap` is the distance
+/// from the sphere centre to the wall surface along `normal`; `v_wall`/`w_wall` the wall's
+/// surface velocity at the contact point and its angular velocity.
+inline ContactGeometry sphere_wall_geometry(const Vec3& normal, double gap, double r_i, double m_i,
+                                            const Vec3& v_i, const Vec3& w_i, const Vec3& v_wall,
+                                            const Vec3& w_wall) {
+  ContactGeometry g;
+  g.distance_m = gap;
+  g.normal = normal;
+  g.overlap_m = r_i - gap;
+  g.r_eff_m = r_i;
+  g.m_eff_kg = m_i;
+  g.lever_i = -(r_i - 0.5 * g.overlap_m) * normal;
+  g.v_rel = v_i + cross(w_i, g.lever_i) - v_wall;
+  g.w_rel = w_i - w_wall;
+  return g;
+}
+
+}  // namespace biodem::contact

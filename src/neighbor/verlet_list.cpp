@@ -1,0 +1,223 @@
+#include "neighbor/verlet_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "core/error.hpp"
+
+namespace biodem::neighbor {
+namespace {
+
+struct Grid {
+  std::array<int, 3> n{1, 1, 1};
+  Vec3 lo;
+  double cell = 1.0;
+  std::vector<std::uint32_t> start;  // cell -> first item
+  std::vector<std::uint32_t> items;  // sphere indices sorted by cell
+  std::vector<std::array<int, 3>> cell_of;
+  std::vector<std::array<int, 3>> wrap_of;  // periodic image index of each sphere (floor((x-lo)/L))
+  std::size_t index(int x, int y, int z) const {
+    return (static_cast<std::size_t>(z) * n[1] + y) * n[0] + x;
+  }
+};
+
+Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
+  Grid g;
+  const std::size_t n = s.size();
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (std::size_t i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], s.position_m[i][k]);
+      hi[k] = std::max(hi[k], s.position_m[i][k]);
+    }
+  const Vec3 len = dom.length_m();
+  // Cap the number of cells at ~4 per sphere (sparse scenes) by enlarging the cell if needed.
+  double cell = cutoff;
+  for (int iter = 0; iter < 64; ++iter) {
+    double cells = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      const double extent = dom.periodic[k] ? len[k] : hi[k] - lo[k];
+      cells *= std::max(1.0, std::floor(extent / cell));
+    }
+    if (cells <= 4.0 * static_cast<double>(std::max<std::size_t>(n, 1)) + 27.0) break;
+    cell *= 1.26;
+  }
+  g.cell = cell;
+  for (int k = 0; k < 3; ++k) {
+    if (dom.periodic[k]) {
+      g.lo[k] = dom.lo_m[k];
+      g.n[k] = static_cast<int>(std::floor(len[k] / cell));
+      if (g.n[k] < 3)
+        throw Error("periodic length along axis " + std::to_string(k) +
+                    " is shorter than 3 neighbour cells (largest sphere diameter + skin)");
+    } else {
+      g.lo[k] = lo[k];
+      g.n[k] = std::max(1, static_cast<int>(std::floor((hi[k] - lo[k]) / cell)) + 1);
+    }
+  }
+  const std::size_t ncell = static_cast<std::size_t>(g.n[0]) * g.n[1] * g.n[2];
+  g.cell_of.resize(n);
+  g.wrap_of.assign(n, {0, 0, 0});
+  std::vector<std::uint32_t> count(ncell + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::array<int, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      double x = s.position_m[i][k] - g.lo[k];
+      if (dom.periodic[k]) {
+        const double w = std::floor(x / len[k]);
+        g.wrap_of[i][k] = static_cast<int>(w);
+        x -= w * len[k];
+        c[k] = std::min(g.n[k] - 1, static_cast<int>(x / (len[k] / g.n[k])));
+      } else {
+        c[k] = std::min(g.n[k] - 1, std::max(0, static_cast<int>(x / cell)));
+      }
+    }
+    g.cell_of[i] = c;
+    ++count[g.index(c[0], c[1], c[2]) + 1];
+  }
+  std::partial_sum(count.begin(), count.end(), count.begin());
+  g.start = count;
+  g.items.resize(n);
+  std::vector<std::uint32_t> fill(count.begin(), count.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& c = g.cell_of[i];
+    g.items[fill[g.index(c[0], c[1], c[2])]++] = static_cast<std::uint32_t>(i);
+  }
+  return g;
+}
+
+std::int32_t pack_image(int sx, int sy, int sz) {
+  return (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sx)))) |
+         (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sy))) << 8) |
+         (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sz))) << 16);
+}
+
+/// Visits every candidate neighbour j of sphere i in the 27 surrounding cells, with its image.
+template <class F>
+void for_each_candidate(const Grid& g, const Domain& dom, std::size_t i, F&& f) {
+  const auto& ci = g.cell_of[i];
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int d[3] = {dx, dy, dz};
+        int c[3], wrap[3] = {0, 0, 0};
+        bool skip = false;
+        for (int k = 0; k < 3; ++k) {
+          c[k] = ci[k] + d[k];
+          if (c[k] < 0 || c[k] >= g.n[k]) {
+            if (!dom.periodic[k]) { skip = true; break; }
+            wrap[k] = c[k] < 0 ? -1 : 1;
+            c[k] -= wrap[k] * g.n[k];
+          }
+        }
+        if (skip) continue;
+        const std::size_t cell = g.index(c[0], c[1], c[2]);
+        for (std::uint32_t p = g.start[cell]; p < g.start[cell + 1]; ++p) f(g.items[p], wrap);
+      }
+}
+
+}  // namespace
+
+void VerletList::build(const state::SphereStore& s) {
+  const std::size_t n = s.size();
+  double r_max = 0.0;
+  for (double r : s.radius_m) r_max = std::max(r_max, r);
+  const Grid g = make_grid(s, domain_, 2.0 * r_max + skin_m_);
+  const Vec3 len = domain_.length_m();
+
+  // Pass 1: candidate rows, per sphere (parallel, each row written by one thread).
+  std::vector<std::vector<std::pair<std::uint32_t, std::int32_t>>> rows(n);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (std::size_t i = 0; i < n; ++i) {
+    auto& row = rows[i];
+    const Vec3 xi = s.position_m[i];
+    const double ri = s.radius_m[i];
+    for_each_candidate(g, domain_, i, [&](std::uint32_t jj, const int* wrap) {
+      if (jj <= i || s.body[jj] == s.body[i]) return;
+      int sh[3] = {0, 0, 0};
+      Vec3 d = xi - s.position_m[jj];
+      for (int k = 0; k < 3; ++k)
+        if (domain_.periodic[k]) {
+          sh[k] = g.wrap_of[i][k] - g.wrap_of[jj][k] + wrap[k];
+          d[k] -= sh[k] * len[k];
+        }
+      const double cut = ri + s.radius_m[jj] + skin_m_;
+      if (norm2(d) < cut * cut) row.emplace_back(jj, pack_image(sh[0], sh[1], sh[2]));
+    });
+    std::sort(row.begin(), row.end());
+  }
+
+  // Pass 2: CSR, carrying history over from the previous list (rows sorted by j: merge).
+  std::vector<std::uint32_t> new_start(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) new_start[i + 1] = new_start[i] + static_cast<std::uint32_t>(rows[i].size());
+  const std::size_t m = new_start[n];
+  std::vector<std::uint32_t> new_j(m);
+  std::vector<std::int32_t> new_image(m);
+  std::vector<contact::ContactHistory> new_hist(m);
+  std::vector<std::uint8_t> new_touch(m, 0);
+  const bool had_old = row_start.size() == n + 1;
+#pragma omp parallel for schedule(dynamic, 256)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t o = had_old ? row_start[i] : 0;
+    const std::size_t o_end = had_old ? row_start[i + 1] : 0;
+    for (std::size_t q = 0; q < rows[i].size(); ++q) {
+      const std::size_t k = new_start[i] + q;
+      new_j[k] = rows[i][q].first;
+      new_image[k] = rows[i][q].second;
+      while (o < o_end && j[o] < new_j[k]) ++o;
+      if (o < o_end && j[o] == new_j[k] && touching[o]) {
+        new_hist[k] = history[o];
+        new_touch[k] = 1;
+      }
+    }
+  }
+  row_start.swap(new_start);
+  j.swap(new_j);
+  image.swap(new_image);
+  history.swap(new_hist);
+  touching.swap(new_touch);
+  force_i.assign(m, Vec3{});
+  torque_i.assign(m, Vec3{});
+  torque_j.assign(m, Vec3{});
+
+  // Reverse index (entries sorted by row, so each sphere's list is in ascending i order).
+  rev_start.assign(n + 1, 0);
+  for (std::size_t k = 0; k < m; ++k) ++rev_start[j[k] + 1];
+  std::partial_sum(rev_start.begin(), rev_start.end(), rev_start.begin());
+  rev_entry.resize(m);
+  std::vector<std::uint32_t> fill(rev_start.begin(), rev_start.end() - 1);
+  for (std::size_t k = 0; k < m; ++k) rev_entry[fill[j[k]]++] = static_cast<std::uint32_t>(k);
+
+  built_at_ = s.position_m;
+  ++builds_;
+}
+
+bool VerletList::needs_rebuild(const state::SphereStore& s) const {
+  if (built_at_.size() != s.size()) return true;
+  const double limit2 = 0.25 * skin_m_ * skin_m_;
+  const std::size_t n = s.size();
+  int flag = 0;
+#pragma omp parallel for reduction(| : flag) schedule(static)
+  for (std::size_t i = 0; i < n; ++i)
+    if (norm2(s.position_m[i] - built_at_[i]) > limit2) flag = 1;
+  return flag != 0;
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> brute_force_overlaps(const state::SphereStore& s,
+                                                                          const Domain& dom) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  const Vec3 len = dom.length_m();
+  for (std::uint32_t i = 0; i < s.size(); ++i)
+    for (std::uint32_t jj = i + 1; jj < s.size(); ++jj) {
+      if (s.body[i] == s.body[jj]) continue;
+      Vec3 d = s.position_m[i] - s.position_m[jj];
+      for (int k = 0; k < 3; ++k)
+        if (dom.periodic[k]) d[k] -= len[k] * std::round(d[k] / len[k]);
+      const double c = s.radius_m[i] + s.radius_m[jj];
+      if (norm2(d) < c * c) out.emplace_back(i, jj);
+    }
+  return out;
+}
+
+}  // namespace biodem::neighbor

@@ -1,0 +1,78 @@
+// Linked-cell binning plus a half Verlet list with a skin and a displacement-triggered rebuild
+// (Allen & Tildesley, Computer Simulation of Liquids, 2nd ed., sec. 5.3-5.4); O(N).
+//
+// The list is stored as CSR rows: row i holds the spheres j > i (of other bodies) closer than
+// r_i + r_j + skin, sorted by j. Per-entry arrays hold the contact history and this step's pair
+// results; a reverse index lists, for every sphere, the entries in which it is the j side, so a
+// sphere can gather its forces in a fixed order without atomics (deterministic for any thread
+// count). History survives rebuilds: a pair present in both lists keeps its history.
+//
+// Periodic axes: positions are never wrapped; each entry carries the integer image shift s such
+// that the minimum-image separation is x_i - x_j - s * L.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "contact/contact_model.hpp"
+#include "core/vec3.hpp"
+#include "state/particle_store.hpp"
+
+namespace biodem::neighbor {
+
+struct Domain {
+  std::array<bool, 3> periodic{false, false, false};
+  Vec3 lo_m, hi_m;  // used on periodic axes only
+  bool any_periodic() const { return periodic[0] || periodic[1] || periodic[2]; }
+  Vec3 length_m() const { return hi_m - lo_m; }
+};
+
+class VerletList {
+ public:
+  void configure(const Domain& domain, double skin_m) {
+    domain_ = domain;
+    skin_m_ = skin_m;
+  }
+  /// Rebuilds the list from current sphere positions, carrying history over.
+  void build(const state::SphereStore& spheres);
+  /// True when some sphere moved more than half the skin since the last build.
+  bool needs_rebuild(const state::SphereStore& spheres) const;
+
+  std::size_t entries() const { return j.size(); }
+  std::size_t builds() const { return builds_; }
+  double skin_m() const { return skin_m_; }
+  const Domain& domain() const { return domain_; }
+
+  /// Minimum-image shift of entry k (zero when nothing is periodic).
+  Vec3 shift(std::size_t k) const {
+    const std::int32_t c = image[k];
+    const Vec3 len = domain_.length_m();
+    return {static_cast<double>(static_cast<std::int8_t>(c & 0xff)) * len.x,
+            static_cast<double>(static_cast<std::int8_t>((c >> 8) & 0xff)) * len.y,
+            static_cast<double>(static_cast<std::int8_t>((c >> 16) & 0xff)) * len.z};
+  }
+
+  // CSR rows (size n+1) and per-entry data.
+  std::vector<std::uint32_t> row_start;
+  std::vector<std::uint32_t> j;
+  std::vector<std::int32_t> image;
+  std::vector<contact::ContactHistory> history;
+  std::vector<std::uint8_t> touching;
+  std::vector<Vec3> force_i, torque_i, torque_j;
+  // Reverse index: entries where the sphere is the j side.
+  std::vector<std::uint32_t> rev_start;
+  std::vector<std::uint32_t> rev_entry;
+
+ private:
+  Domain domain_;
+  double skin_m_ = 0.0;
+  std::size_t builds_ = 0;
+  std::vector<Vec3> built_at_;
+};
+
+/// All pairs (i < j, different bodies) whose spheres overlap, by brute force: the reference for
+/// testing the list. Returns (i, j) sorted.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> brute_force_overlaps(const state::SphereStore& spheres,
+                                                                          const Domain& domain);
+
+}  // namespace biodem::neighbor

@@ -1,0 +1,349 @@
+#include "sim/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.hpp"
+#include "integrate/rigid_rotation.hpp"
+
+namespace biodem::sim {
+
+Simulation::Simulation(std::vector<shapes::ClumpTemplate> templates, std::vector<double> material_density_kg_m3,
+                       contact::PairTable pairs, double dt_s, Vec3 gravity_m_s2)
+    : templates_(std::move(templates)),
+      density_(std::move(material_density_kg_m3)),
+      pairs_(std::move(pairs)),
+      dt_s_(dt_s),
+      gravity_(gravity_m_s2) {
+  cohesion_ = pairs_.any_cohesion();
+  rolling_ = pairs_.any_rolling();
+}
+
+std::uint32_t Simulation::add_wall(const WallSpec& w) {
+  const std::size_t nw_old = walls_.size(), n = spheres_.size();
+  walls_.push_back(w);
+  std::vector<contact::ContactHistory> h(n * walls_.size());
+  std::vector<std::uint8_t> t(n * walls_.size(), 0);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < nw_old; ++k) {
+      h[i * walls_.size() + k] = wall_history_[i * nw_old + k];
+      t[i * walls_.size() + k] = wall_touching_[i * nw_old + k];
+    }
+  wall_history_.swap(h);
+  wall_touching_.swap(t);
+  apply_drum_rotation();
+  forces_valid_ = false;
+  return static_cast<std::uint32_t>(walls_.size() - 1);
+}
+
+void Simulation::apply_drum_rotation() {
+  for (auto& w : walls_)
+    if (w.drum_wall) w.geometry.angular_velocity_rad_s = drum_rotating_ ? w.drum_sign * drum_omega_ : 0.0;
+}
+
+std::uint32_t Simulation::add_body(const BodyInit& in) {
+  if (in.shape >= templates_.size()) throw Error("add_body: unknown shape index");
+  if (in.material >= density_.size()) throw Error("add_body: unknown material index");
+  const auto& t = templates_[in.shape];
+  const double rho = density_[in.material];
+  const std::uint32_t b = static_cast<std::uint32_t>(bodies_.size());
+  const double mass = rho * t.volume_m3;
+  const Vec3 inertia = rho * t.principal_inertia_per_density_m5;
+  bodies_.position_m.push_back(in.position_m);
+  bodies_.velocity_m_s.push_back(in.velocity_m_s);
+  bodies_.angular_velocity_rad_s.push_back(in.angular_velocity_rad_s);
+  bodies_.orientation.push_back(normalized(in.orientation));
+  bodies_.angular_momentum_kg_m2_s.push_back(
+      integrate::angular_momentum_from_velocity(bodies_.orientation.back(), in.angular_velocity_rad_s, inertia));
+  bodies_.mass_kg.push_back(mass);
+  bodies_.inertia_kg_m2.push_back(inertia);
+  bodies_.shape.push_back(in.shape);
+  bodies_.first_sphere.push_back(static_cast<std::uint32_t>(spheres_.size()));
+  bodies_.sphere_count.push_back(static_cast<std::uint32_t>(t.sphere_count()));
+  bodies_.force_n.push_back({});
+  bodies_.torque_n_m.push_back({});
+  for (std::size_t k = 0; k < t.sphere_count(); ++k) {
+    spheres_.position_m.push_back(in.position_m + rotate(bodies_.orientation.back(), t.offsets_m[k]));
+    spheres_.velocity_m_s.push_back({});
+    spheres_.angular_velocity_rad_s.push_back({});
+    spheres_.radius_m.push_back(t.radii_m[k]);
+    spheres_.offset_body_m.push_back(t.offsets_m[k]);
+    spheres_.body.push_back(b);
+    spheres_.material.push_back(in.material);
+    spheres_.body_mass_kg.push_back(mass);
+    spheres_.force_n.push_back({});
+    spheres_.torque_n_m.push_back({});
+    for (std::size_t w = 0; w < walls_.size(); ++w) {
+      wall_history_.push_back({});
+      wall_touching_.push_back(0);
+    }
+  }
+  list_valid_ = false;
+  forces_valid_ = false;
+  return b;
+}
+
+void Simulation::update_spheres_from_bodies() {
+  const std::size_t nb = bodies_.size();
+#pragma omp parallel for schedule(static)
+  for (std::size_t b = 0; b < nb; ++b) {
+    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
+    const Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b];
+    if (ns == 1 && spheres_.offset_body_m[s0] == Vec3{}) {
+      spheres_.position_m[s0] = x;
+      spheres_.velocity_m_s[s0] = v;
+      spheres_.angular_velocity_rad_s[s0] = w;
+      continue;
+    }
+    const Mat3 r = to_matrix(bodies_.orientation[b]);
+    for (std::uint32_t s = s0; s < s0 + ns; ++s) {
+      const Vec3 arm = r * spheres_.offset_body_m[s];
+      spheres_.position_m[s] = x + arm;
+      spheres_.velocity_m_s[s] = v + cross(w, arm);
+      spheres_.angular_velocity_rad_s[s] = w;
+    }
+  }
+}
+
+void Simulation::refresh() {
+  if (skin_m_ < 0.0) {
+    double rmin = 1e300;
+    for (double r : spheres_.radius_m) rmin = std::min(rmin, r);
+    skin_m_ = spheres_.size() ? rmin : 1e-3;  // half the smallest diameter
+  }
+  list_.configure(domain_, skin_m_);
+  update_spheres_from_bodies();
+  list_.build(spheres_);
+  list_valid_ = true;
+  compute_forces();
+  reduce_to_bodies();
+  forces_valid_ = true;
+}
+
+void Simulation::step() {
+  if (!forces_valid_ || !list_valid_) refresh();
+  const double h = 0.5 * dt_s_, dt = dt_s_;
+  const std::size_t nb = bodies_.size();
+#pragma omp parallel for schedule(static)
+  for (std::size_t b = 0; b < nb; ++b) {
+    const double inv_m = 1.0 / bodies_.mass_kg[b];
+    bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
+    bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
+    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
+    } else {
+      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
+      bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
+          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
+    }
+  }
+  update_spheres_from_bodies();
+  if (list_.needs_rebuild(spheres_)) list_.build(spheres_);
+  compute_forces();
+  reduce_to_bodies();
+#pragma omp parallel for schedule(static)
+  for (std::size_t b = 0; b < nb; ++b) {
+    bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
+    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
+    } else {
+      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
+      bodies_.angular_velocity_rad_s[b] = integrate::angular_velocity_from_momentum(
+          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia);
+    }
+  }
+  // Sphere velocities at the full step (used by diagnostics and outputs).
+  update_spheres_from_bodies();
+  time_s_ += dt;
+  ++steps_;
+}
+
+void Simulation::compute_forces() {
+  if (cohesion_) {
+    if (rolling_) compute_forces_impl<true, true>();
+    else compute_forces_impl<true, false>();
+  } else {
+    if (rolling_) compute_forces_impl<false, true>();
+    else compute_forces_impl<false, false>();
+  }
+}
+
+template <bool Cohesion, bool Rolling>
+void Simulation::compute_forces_impl() {
+  const std::size_t n = spheres_.size();
+  const auto& s = spheres_;
+  auto& L = list_;
+  const bool periodic = domain_.any_periodic();
+  const double dt = dt_s_;
+  std::size_t pair_contacts = 0, wall_contacts = 0;
+
+  // Pair entries: each entry is written by the thread that owns its row.
+#pragma omp parallel for schedule(dynamic, 128) reduction(+ : pair_contacts)
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 xi = s.position_m[i];
+    const double ri = s.radius_m[i];
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      Vec3 d = xi - s.position_m[j];
+      if (periodic) d -= L.shift(k);
+      const double rj = s.radius_m[j];
+      const double dist2 = norm2(d), rsum = ri + rj;
+      if (dist2 >= rsum * rsum) {
+        if (L.touching[k]) {
+          L.touching[k] = 0;
+          L.history[k] = {};
+          L.force_i[k] = {};
+          L.torque_i[k] = {};
+          L.torque_j[k] = {};
+        }
+        continue;
+      }
+      const double dist = std::sqrt(dist2);
+      const contact::ContactGeometry g = contact::sphere_sphere_geometry(
+          d, dist, ri, rj, s.body_mass_kg[i], s.body_mass_kg[j], s.velocity_m_s[i], s.velocity_m_s[j],
+          s.angular_velocity_rad_s[i], s.angular_velocity_rad_s[j]);
+      const contact::PairParams& p = pairs_(s.material[i], s.material[j]);
+      const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt);
+      L.touching[k] = 1;
+      L.force_i[k] = out.force_i;
+      L.torque_i[k] = out.torque_i;
+      L.torque_j[k] = out.torque_j;
+      ++pair_contacts;
+    }
+  }
+
+  // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
+  const std::size_t nw = walls_.size();
+#pragma omp parallel for schedule(static) reduction(+ : wall_contacts)
+  for (std::size_t i = 0; i < n; ++i) {
+    Vec3 f, t;
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      f += L.force_i[k];
+      t += L.torque_i[k];
+    }
+    for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
+      const std::uint32_t k = L.rev_entry[q];
+      f -= L.force_i[k];
+      t += L.torque_j[k];
+    }
+    for (std::size_t w = 0; w < nw; ++w) {
+      const WallSpec& ws = walls_[w];
+      const double ri = s.radius_m[i];
+      const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
+      const std::size_t slot = i * nw + w;
+      if (!hit.touching) {
+        if (wall_touching_[slot]) {
+          wall_touching_[slot] = 0;
+          wall_history_[slot] = {};
+        }
+        continue;
+      }
+      const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
+      const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
+      const Vec3 w_wall = ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+      const contact::ContactGeometry g = contact::sphere_wall_geometry(
+          hit.normal, hit.gap_m, ri, s.body_mass_kg[i], s.velocity_m_s[i], s.angular_velocity_rad_s[i], v_wall, w_wall);
+      const contact::PairParams& p = pairs_(s.material[i], ws.material);
+      const double area = Cohesion ? contact::sjkr_area_sphere_wall(ri, hit.gap_m) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wall_history_[slot], area, dt);
+      wall_touching_[slot] = 1;
+      f += out.force_i;
+      t += out.torque_i;
+      ++wall_contacts;
+    }
+    spheres_.force_n[i] = f;
+    spheres_.torque_n_m[i] = t;
+  }
+  contacts_ = pair_contacts + wall_contacts;
+}
+
+void Simulation::reduce_to_bodies() {
+  const std::size_t nb = bodies_.size();
+#pragma omp parallel for schedule(static)
+  for (std::size_t b = 0; b < nb; ++b) {
+    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
+    Vec3 f = bodies_.mass_kg[b] * gravity_, t;
+    for (std::uint32_t s = s0; s < s0 + ns; ++s) {
+      f += spheres_.force_n[s];
+      t += spheres_.torque_n_m[s] + cross(spheres_.position_m[s] - bodies_.position_m[b], spheres_.force_n[s]);
+    }
+    bodies_.force_n[b] = f;
+    bodies_.torque_n_m[b] = t;
+  }
+}
+
+double Simulation::kinetic_energy_j() const {
+  double e = 0.0;
+  const std::size_t nb = bodies_.size();
+#pragma omp parallel for reduction(+ : e) schedule(static)
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Vec3 wb = rotate_inverse(bodies_.orientation[b], bodies_.angular_velocity_rad_s[b]);
+    const Vec3 in = bodies_.inertia_kg_m2[b];
+    e += 0.5 * bodies_.mass_kg[b] * norm2(bodies_.velocity_m_s[b]) +
+         0.5 * (in.x * wb.x * wb.x + in.y * wb.y * wb.y + in.z * wb.z * wb.z);
+  }
+  return e;
+}
+
+double Simulation::elastic_energy_j() const {
+  double e = 0.0;
+  const auto& s = spheres_;
+  const auto& L = list_;
+  const Vec3 len = domain_.length_m();
+  (void)len;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      Vec3 d = s.position_m[i] - s.position_m[j];
+      if (domain_.any_periodic()) d -= L.shift(k);
+      const double dist = norm(d), delta = s.radius_m[i] + s.radius_m[j] - dist;
+      if (delta <= 0.0) continue;
+      const auto& p = pairs_(s.material[i], s.material[j]);
+      const double r_eff = s.radius_m[i] * s.radius_m[j] / (s.radius_m[i] + s.radius_m[j]);
+      e += contact::hertz_elastic_energy(p.y_eff_pa, r_eff, delta);
+    }
+    for (const auto& w : walls_) {
+      const auto hit = walls::wall_hit(w.geometry, s.position_m[i], s.radius_m[i]);
+      if (!hit.touching) continue;
+      const auto& p = pairs_(s.material[i], w.material);
+      e += contact::hertz_elastic_energy(p.y_eff_pa, s.radius_m[i], s.radius_m[i] - hit.gap_m);
+    }
+  }
+  return e;
+}
+
+Vec3 Simulation::linear_momentum() const {
+  Vec3 p;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) p += bodies_.mass_kg[b] * bodies_.velocity_m_s[b];
+  return p;
+}
+
+Vec3 Simulation::angular_momentum_about_origin() const {
+  Vec3 l;
+  for (std::size_t b = 0; b < bodies_.size(); ++b)
+    l += cross(bodies_.position_m[b], bodies_.mass_kg[b] * bodies_.velocity_m_s[b]) +
+         integrate::angular_momentum_from_velocity(bodies_.orientation[b], bodies_.angular_velocity_rad_s[b],
+                                                   bodies_.inertia_kg_m2[b]);
+  return l;
+}
+
+Vec3 Simulation::center_of_mass_m() const {
+  Vec3 c;
+  double m = 0.0;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    c += bodies_.mass_kg[b] * bodies_.position_m[b];
+    m += bodies_.mass_kg[b];
+  }
+  return m > 0.0 ? c / m : c;
+}
+
+double Simulation::total_mass_kg() const {
+  double m = 0.0;
+  for (double x : bodies_.mass_kg) m += x;
+  return m;
+}
+
+}  // namespace biodem::sim
