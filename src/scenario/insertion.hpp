@@ -1,0 +1,39 @@
+// Random, non-overlapping insertion of bodies (SPEC 5): random positions inside a region and
+// uniformly random orientations (Shoemake, Graphics Gems III, 1992), rejecting any trial that
+// overlaps an existing sphere, another new one, or leaves the region. Deterministic for a seed.
+#pragma once
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "sim/simulation.hpp"
+
+namespace biodem::scenario {
+
+/// A cylinder region about z (the drum interior) from z_min to z_max; `periodic_z` lets
+/// spheres cross the z limits (the periodic image is checked for overlaps).
+struct CylinderRegion {
+  double radius_m = 0.0;
+  double z_min_m = 0.0, z_max_m = 0.0;
+  bool periodic_z = false;
+};
+
+struct InsertionRequest {
+  std::uint32_t shape = 0;
+  std::uint16_t material = 0;
+};
+
+/// The list of bodies to insert: counts per population by volume fraction (largest remainder),
+/// in a random order. `volumes_m3[k]` is the particle volume of population k.
+std::vector<InsertionRequest> plan_population(std::uint64_t count, const std::vector<double>& volume_fractions,
+                                              const std::vector<double>& volumes_m3,
+                                              const std::vector<InsertionRequest>& populations, std::mt19937_64& rng);
+
+/// Tries to place the requests from `next` on; returns the index one past the last placed
+/// request (requests are placed in order; a request that fails `max_attempts` times stops the wave).
+std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& region, const std::vector<InsertionRequest>& todo,
+                        std::size_t next, std::uint64_t max_attempts, std::mt19937_64& rng);
+
+Quat random_orientation(std::mt19937_64& rng);
+
+}  // namespace biodem::scenario
