@@ -1,0 +1,45 @@
+// Derived quantities of a validated case (SPEC 2.5, 3, 5, 11): what `biodem check` prints and
+// run.log records, and the few numbers the engine takes from the same place so that the check
+// and the run can never disagree (particle count for a fill fraction, smallest Rayleigh time,
+// default skin).
+//
+// Conventions shared with the engine:
+// - [insertion].coarse_grain multiplies the lengths of EVERY particle, inserted or explicit
+//   (1 without [insertion]); templates are shapes::make_template(shape, particle_coarse_grain()).
+// - "Particle types" are the (material, shape) combinations used by [[population]] entries and
+//   explicit [[particle]] entries.
+#pragma once
+#include <cstdint>
+#include <string>
+
+#include "config/case_config.hpp"
+
+namespace biodem::io {
+
+/// The length factor applied to every particle: [insertion].coarse_grain, or 1.
+double particle_coarse_grain(const config::CaseConfig& c);
+
+/// pi D^2 / 4 * W.
+double drum_volume_m3(const config::Drum& d);
+
+/// Number-weighted mean particle volume of the insertion populations: with volume fractions
+/// phi_k and particle volumes V_k (after coarse graining) the number fractions are
+/// proportional to phi_k / V_k, so the mean is 1 / sum_k(phi_k / V_k). 0 without populations.
+double mean_population_particle_volume_m3(const config::CaseConfig& c);
+
+/// Particles [insertion] creates: `count`, or for a fill fraction
+/// round(fill_fraction * bulk_solid_fraction * V_drum / mean particle volume).
+/// 0 without [insertion] (explicit [[particle]] entries are not included).
+std::uint64_t implied_particle_count(const config::CaseConfig& c);
+
+/// Smallest Rayleigh time (SPEC 2.5) over the particle types in use, each evaluated with the
+/// smallest sphere radius of its shape after coarse graining. +infinity if there is none.
+double smallest_rayleigh_time_s(const config::CaseConfig& c);
+
+/// [run].skin_m, or its default: half the smallest sphere diameter in use (0 if none).
+double resolved_skin_m(const config::CaseConfig& c);
+
+/// The resolved case and its derived quantities as readable multi-line text.
+std::string describe_case(const config::CaseConfig& c);
+
+}  // namespace biodem::io

@@ -1,0 +1,623 @@
+// Case-file parsing and validation (SPEC 10, 11): every rule has a test asserting that the
+// message names the key. Cases are inline TOML via parse_case; all tests run in milliseconds.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "contact/time_step.hpp"
+#include "core/error.hpp"
+#include "io/case_parser.hpp"
+#include "io/case_report.hpp"
+#include "io/output_dir.hpp"
+
+using namespace biodem;
+
+namespace {
+
+// The example of SPEC 11, verbatim apart from the comments.
+const std::string kSpecExample = R"(
+[run]
+dt_s = 1.5e-5
+seed = 1
+gravity_m_s2 = [0.0, -9.81, 0.0]
+
+[[material]]
+name = "bead"
+density_kg_m3 = 2550.0
+young_pa = 5.0e6
+poisson = 0.22
+
+[[material]]
+name = "steel"
+young_pa = 5.0e6
+poisson = 0.22
+
+[[material]]
+name = "glass"
+young_pa = 5.0e6
+poisson = 0.22
+
+[[pair]]
+materials = ["bead", "bead"]
+restitution = 0.87
+sliding_friction = 0.2
+rolling_friction = 0.0
+cohesion_energy_density_j_m3 = 0.0
+
+[[pair]]
+materials = ["bead", "steel"]
+restitution = 0.87
+sliding_friction = 0.6
+rolling_friction = 0.0
+cohesion_energy_density_j_m3 = 0.0
+
+[[pair]]
+materials = ["bead", "glass"]
+restitution = 0.87
+sliding_friction = 0.2
+rolling_friction = 0.0
+cohesion_energy_density_j_m3 = 0.0
+
+[[shape]]
+name = "bead1mm"
+kind = "sphere"
+diameter_m = 1.0e-3
+
+[[population]]
+shape = "bead1mm"
+material = "bead"
+volume_fraction = 1.0
+
+[insertion]
+count = 19791
+coarse_grain = 1.0
+
+[drum]
+diameter_m = 0.100
+width_m = 0.005
+rpm = 0.5
+mantle_material = "steel"
+endplate_material = "glass"
+
+[[phase]]
+name = "settle"
+steps = 10000
+rotate = false
+
+[[phase]]
+name = "rotate"
+revolutions = 3.0
+
+[output]
+sample_hz = 50.0
+snapshot_every_s = 1.0
+checkpoint_every_s = 10.0
+trace = false
+)";
+
+// An explicit scene: two beads above a floor.
+const std::string kScene = R"(
+[run]
+dt_s = 1.0e-5
+
+[[material]]
+name = "bead"
+density_kg_m3 = 2550
+young_pa = 5e6
+poisson = 0.22
+
+[[material]]
+name = "steel"
+young_pa = 5e6
+poisson = 0.22
+
+[[pair]]
+materials = ["bead", "bead"]
+restitution = 0.9
+sliding_friction = 0.3
+
+[[pair]]
+materials = ["steel", "bead"]
+restitution = 0.9
+sliding_friction = 0.3
+
+[[shape]]
+name = "b"
+kind = "sphere"
+diameter_m = 1e-3
+
+[[wall]]
+kind = "plane"
+material = "steel"
+point_m = [0, 0, 0]
+normal = [0, 2, 0]
+
+[[particle]]
+shape = "b"
+material = "bead"
+position_m = [0, 0.001, 0]
+
+[[particle]]
+shape = "b"
+material = "bead"
+position_m = [0.002, 0.001, 0]
+velocity_m_s = [0, -1, 0]
+
+[[phase]]
+name = "fall"
+duration_s = 0.01
+)";
+
+/// `text` with the first occurrence of `from` replaced by `to` (which must exist).
+std::string edit(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  if (pos == std::string::npos) throw std::logic_error("test bug: '" + from + "' not in the base case");
+  return text.replace(pos, from.size(), to);
+}
+
+/// The error message of parsing `text`, or "" if it parses.
+std::string error_of(const std::string& text) {
+  try {
+    io::parse_case(text, "case.toml");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+#define EXPECT_ERROR_NAMES(text, ...)                                              \
+  do {                                                                             \
+    const std::string msg_ = error_of(text);                                       \
+    ASSERT_FALSE(msg_.empty()) << "expected an error";                             \
+    EXPECT_EQ(msg_.find('\n'), std::string::npos) << "one line: " << msg_;        \
+    EXPECT_EQ(msg_.rfind("case.toml", 0), 0u) << "names the file: " << msg_;      \
+    for (const char* part_ : {__VA_ARGS__}) EXPECT_NE(msg_.find(part_), std::string::npos) << msg_; \
+  } while (0)
+
+}  // namespace
+
+// ------------------------------------------------------------------ valid cases
+
+TEST(CaseParser, SpecExampleParses) {
+  const auto lc = io::parse_case(kSpecExample, "case.toml");
+  const auto& c = lc.config;
+  EXPECT_EQ(c.source_path, "case.toml");
+  EXPECT_DOUBLE_EQ(c.run.dt_s, 1.5e-5);
+  EXPECT_EQ(c.run.seed, 1u);
+  EXPECT_EQ(c.materials.size(), 3u);
+  EXPECT_FALSE(c.materials[1].density_kg_m3.has_value());
+  ASSERT_EQ(c.pairs.size(), 3u);
+  EXPECT_EQ(c.pairs[1].material_a, 0u);
+  EXPECT_EQ(c.pairs[1].material_b, 1u);
+  EXPECT_DOUBLE_EQ(c.pairs[1].sliding_friction, 0.6);
+  ASSERT_EQ(c.shapes.size(), 1u);
+  EXPECT_EQ(c.shapes[0].kind, config::ShapeKind::Sphere);
+  ASSERT_TRUE(c.insertion && c.insertion->count);
+  EXPECT_EQ(*c.insertion->count, 19791u);
+  ASSERT_TRUE(c.drum);
+  EXPECT_EQ(c.drum->mantle_material, 1u);
+  EXPECT_EQ(c.drum->endplate_material, std::optional<std::size_t>(2));
+  EXPECT_EQ(c.drum->axial_boundary, config::AxialBoundary::EndPlates);
+  ASSERT_EQ(c.phases.size(), 2u);
+  EXPECT_EQ(c.phases[0].length, config::PhaseLength::Steps);
+  EXPECT_EQ(c.phases[0].steps, 10000u);
+  EXPECT_FALSE(c.phases[0].rotate);
+  EXPECT_EQ(c.phases[1].length, config::PhaseLength::Revolutions);
+  EXPECT_TRUE(c.phases[1].rotate);  // default for revolutions
+  ASSERT_TRUE(c.output.checkpoint_every_s);
+  EXPECT_DOUBLE_EQ(*c.output.checkpoint_every_s, 10.0);
+  // Glass beads at dt = 1.5e-5 s sit at ~25 % of the Rayleigh time: loads, with a warning.
+  ASSERT_EQ(lc.warnings.size(), 1u);
+  EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos) << lc.warnings[0];
+}
+
+TEST(CaseParser, ExplicitSceneParsesWithDefaults) {
+  const auto lc = io::parse_case(kScene, "scene.toml");
+  const auto& c = lc.config;
+  EXPECT_TRUE(lc.warnings.empty());
+  EXPECT_EQ(c.run.gravity_m_s2, (config::Vec3d{0.0, -9.81, 0.0}));
+  EXPECT_EQ(c.run.seed, 1u);
+  EXPECT_DOUBLE_EQ(*c.materials[0].density_kg_m3, 2550.0);  // integer accepted for a real key
+  EXPECT_DOUBLE_EQ(c.pairs[0].rolling_friction, 0.0);
+  EXPECT_DOUBLE_EQ(c.pairs[0].cohesion_energy_density_j_m3, 0.0);
+  ASSERT_EQ(c.walls.size(), 1u);
+  EXPECT_DOUBLE_EQ(c.walls[0].normal[1], 1.0);  // normalised
+  ASSERT_EQ(c.particles.size(), 2u);
+  EXPECT_EQ(c.particles[1].velocity_m_s, (config::Vec3d{0.0, -1.0, 0.0}));
+  EXPECT_EQ(c.particles[0].orientation, (std::array<double, 4>{1, 0, 0, 0}));
+  EXPECT_FALSE(c.insertion);
+  EXPECT_FALSE(c.drum);
+  EXPECT_DOUBLE_EQ(c.output.sample_hz, 50.0);
+  EXPECT_EQ(c.phases[0].length, config::PhaseLength::Duration);
+  EXPECT_FALSE(c.phases[0].rotate);
+}
+
+TEST(CaseParser, RealKeyAcceptsInteger) {
+  const auto c = io::parse_case(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = 1"), "case.toml").config;
+  EXPECT_DOUBLE_EQ(c.drum->diameter_m, 1.0);
+}
+
+TEST(CaseParser, OrientationIsNormalised) {
+  const auto c = io::parse_case(edit(kScene, "velocity_m_s = [0, -1, 0]", "orientation = [2, 0, 0, 2]"), "c").config;
+  EXPECT_NEAR(c.particles[1].orientation[0], std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(c.particles[1].orientation[3], std::sqrt(0.5), 1e-15);
+  EXPECT_ERROR_NAMES(edit(kScene, "velocity_m_s = [0, -1, 0]", "orientation = [0, 0, 0, 0]"), ".orientation");
+}
+
+TEST(CaseParser, NeedleAndClumpShapes) {
+  std::string t = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                       "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 0.38");
+  t = edit(t, "[0.002, 0.001, 0]", "[0.01, 0.01, 0]");
+  t = edit(t, "[0, 0.001, 0]", "[0, 0.002, 0]");
+  const auto c = io::parse_case(t, "case.toml").config;
+  EXPECT_EQ(c.shapes[0].kind, config::ShapeKind::Needle);
+  EXPECT_DOUBLE_EQ(c.shapes[0].overlap_factor, 0.2);
+  const std::string clump = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                                 "kind = \"clump\"\nspheres = [[0, 0, 0, 5e-4], [6e-4, 0, 0, 4e-4]]");
+  const auto c2 = io::parse_case(edit(clump, "[0.002, 0.001, 0]", "[0.004, 0.001, 0]"), "case.toml").config;
+  ASSERT_EQ(c2.shapes[0].spheres.size(), 2u);
+  EXPECT_DOUBLE_EQ(c2.shapes[0].spheres[1].radius_m, 4e-4);
+  EXPECT_ERROR_NAMES(edit(clump, "[6e-4, 0, 0, 4e-4]", "[6e-4, 0, 0, -4e-4]"), ".spheres", "radius");
+  EXPECT_ERROR_NAMES(edit(clump, "[[0, 0, 0, 5e-4], [6e-4, 0, 0, 4e-4]]", "[]"), ".spheres");
+}
+
+TEST(CaseParser, NeedleOverlapFactorAboveHalfWarns) {
+  std::string t = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                       "kind = \"needle\"\nd50_m = 1e-3\naspect_ratio = 0.7\noverlap_factor = 0.6");
+  t = edit(t, "[0.002, 0.001, 0]", "[0.01, 0.01, 0]");
+  t = edit(t, "[0, 0.001, 0]", "[0, 0.002, 0]");
+  const auto lc = io::parse_case(t, "case.toml");
+  ASSERT_FALSE(lc.warnings.empty());
+  EXPECT_NE(lc.warnings[0].find("overlap_factor"), std::string::npos);
+  EXPECT_ERROR_NAMES(edit(t, "overlap_factor = 0.6", "overlap_factor = 1.0"), ".overlap_factor");
+}
+
+TEST(CaseParser, SettleCriterionPhase) {
+  const std::string t = edit(kSpecExample, "steps = 10000",
+                             "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 1.0\nmin_duration_s = 0.3");
+  const auto c = io::parse_case(t, "case.toml").config;
+  ASSERT_TRUE(c.phases[0].until_mean_kinetic_energy_j);
+  EXPECT_DOUBLE_EQ(*c.phases[0].max_duration_s, 1.0);
+  EXPECT_DOUBLE_EQ(c.phases[0].min_duration_s, 0.3);
+  EXPECT_DOUBLE_EQ(c.phases[0].duration_s, 1.0);  // the cap
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10"), ".max_duration_s");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 10\nduration_s = 1.0"), ".duration_s");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 10\nmax_duration_s = 1.0"), ".max_duration_s");
+}
+
+TEST(CaseParser, PhaseRules) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "rpm = 0.5", "rpm = 0"), "[[phase]] #2 (rotate) .revolutions", "rpm");
+  EXPECT_ERROR_NAMES(edit(kScene, "duration_s = 0.01", "revolutions = 1"), ".revolutions", "[drum]");
+  EXPECT_ERROR_NAMES(edit(kScene, "name = \"fall\"\n", "name = \"fall\"\nrotate = true\n"), ".rotate");
+  EXPECT_ERROR_NAMES(edit(kScene, "duration_s = 0.01", ""), "[[phase]] #1 (fall) .steps");
+  EXPECT_ERROR_NAMES(edit(kScene, "[[phase]]\nname = \"fall\"\nduration_s = 0.01", ""), "[[phase]]");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 0"), ".steps");
+}
+
+// ------------------------------------------------------------------ keys and types
+
+TEST(CaseParser, UnknownKeyIsNamedWithSuggestion) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 0.100", "diamter_m = 0.100"), "[drum].diamter_m",
+                     "did you mean diameter_m");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[output]", "[outptu]"), "[outptu]", "did you mean output");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "restitution = 0.87\nsliding_friction = 0.6",
+                          "restitution = 0.87\nsliding_friction = 0.6\nstatic_friction = 1"),
+                     "[[pair]] #2 (materials bead/steel) .static_friction");
+}
+
+TEST(CaseParser, KeyOfAnotherShapeKindIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 1.0e-3", "diameter_m = 1.0e-3\naspect_ratio = 0.5"),
+                     "[[shape]] #1 (bead1mm) .aspect_ratio", "sphere");
+}
+
+TEST(CaseParser, MissingRequiredKeyIsNamed) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "width_m = 0.005\n", ""), "[drum].width_m", "missing");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "dt_s = 1.5e-5\n", ""), "[run].dt_s", "missing");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "young_pa = 5.0e6\n", ""), "[[material]] #1 (bead) .young_pa");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[insertion]\ncount = 19791\ncoarse_grain = 1.0\n", ""), "[insertion]");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "endplate_material = \"glass\"", ""), "[drum].endplate_material");
+}
+
+TEST(CaseParser, MissingDensityOfParticleMaterialIsNamed) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "density_kg_m3 = 2550.0\n", ""), "[[material]] #1 (bead) .density_kg_m3");
+}
+
+TEST(CaseParser, WrongTypeIsNamed) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = \"big\""), "[drum].diameter_m",
+                     "must be a number");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = 0"), "[output].trace", "true or false");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "gravity_m_s2 = [0.0, -9.81, 0.0]", "gravity_m_s2 = [0.0, -9.81]"),
+                     "[run].gravity_m_s2", "3 numbers");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "mantle_material = \"steel\"", "mantle_material = 3"),
+                     "[drum].mantle_material", "string");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[drum]", "[[drum]]"), "[drum]");
+}
+
+TEST(CaseParser, IntegerKeyRejectsReal) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = 350.5"), "[insertion].count = 350.5",
+                     "must be an integer");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "seed = 1", "seed = 2.0"), "[run].seed", "integer");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 1e4"), ".steps", "integer");
+}
+
+TEST(CaseParser, IntegerKeyRejectsNegative) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = -5"), "[insertion].count");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "seed = 1", "seed = -1"), "[run].seed");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = false\nframe_size_px = 32"),
+                     "[output].frame_size_px");
+}
+
+TEST(CaseParser, UnknownNameReferenceIsNamed) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "mantle_material = \"steel\"", "mantle_material = \"stel\""),
+                     "[drum].mantle_material = \"stel\"", "steel");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "shape = \"bead1mm\"", "shape = \"bead2mm\""), "[[population]] #1 .shape");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "materials = [\"bead\", \"glass\"]", "materials = [\"bead\", \"glas\"]"),
+                     ".materials");
+}
+
+// ------------------------------------------------------------------ ranges
+
+TEST(CaseParser, NonPositiveDiameterIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 1.0e-3", "diameter_m = -1.0e-3"),
+                     "[[shape]] #1 (bead1mm) .diameter_m", "> 0");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = 0"), "[drum].diameter_m");
+}
+
+TEST(CaseParser, NonPositiveDensityIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "density_kg_m3 = 2550.0", "density_kg_m3 = 0"),
+                     "[[material]] #1 (bead) .density_kg_m3 = 0");
+}
+
+TEST(CaseParser, NonPositiveModulusIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "young_pa = 5.0e6", "young_pa = -5.0e6"), "[[material]] #1 (bead) .young_pa");
+}
+
+TEST(CaseParser, PoissonAtLeastHalfIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "poisson = 0.22", "poisson = 0.5"), "[[material]] #1 (bead) .poisson = 0.5",
+                     "< 0.5");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "poisson = 0.22", "poisson = -1.0"), ".poisson");
+}
+
+TEST(CaseParser, RestitutionOutsideUnitIntervalIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "restitution = 0.87\nsliding_friction = 0.6", "restitution = 1.2\nsliding_friction = 0.6"),
+                     "case.toml: [[pair]] #2 (materials bead/steel) .restitution = 1.2: must be in (0, 1]");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "restitution = 0.87", "restitution = 0"), "[[pair]] #1", ".restitution");
+  EXPECT_TRUE(error_of(edit(kSpecExample, "restitution = 0.87", "restitution = 1")).empty());
+}
+
+TEST(CaseParser, NegativeFrictionIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "sliding_friction = 0.2", "sliding_friction = -0.1"), ".sliding_friction",
+                     ">= 0");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "rolling_friction = 0.0", "rolling_friction = -0.1"), ".rolling_friction");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "cohesion_energy_density_j_m3 = 0.0", "cohesion_energy_density_j_m3 = -1"),
+                     ".cohesion_energy_density_j_m3");
+}
+
+TEST(CaseParser, AspectRatioAboveOneIsRejected) {
+  const std::string t = edit(kSpecExample, "kind = \"sphere\"\ndiameter_m = 1.0e-3",
+                             "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 1.5");
+  EXPECT_ERROR_NAMES(t, "[[shape]] #1 (bead1mm) .aspect_ratio = 1.5", "(0, 1]");
+}
+
+TEST(CaseParser, PopulationFractionsMustSumToOne) {
+  const std::string two = edit(kSpecExample, "volume_fraction = 1.0",
+                               "volume_fraction = 0.5\n\n[[population]]\nshape = \"bead1mm\"\nmaterial = \"bead\"\n"
+                               "volume_fraction = 0.4");
+  EXPECT_ERROR_NAMES(two, "volume_fraction", "sum to 0.9");
+  EXPECT_TRUE(error_of(edit(two, "volume_fraction = 0.4", "volume_fraction = 0.5")).empty());
+  EXPECT_ERROR_NAMES(edit(two, "volume_fraction = 0.4\n", ""), "[[population]] #2 .volume_fraction");
+}
+
+TEST(CaseParser, InsertionNeedsExactlyOneOfCountAndFill) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = 19791\nfill_fraction = 0.4"),
+                     "[insertion].fill_fraction");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", ""), "[insertion].count");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "fill_fraction = 1.0"), "[insertion].fill_fraction");
+}
+
+// ------------------------------------------------------------------ cross-table rules
+
+TEST(CaseParser, MissingPairTableIsNamed) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "materials = [\"bead\", \"glass\"]", "materials = [\"glass\", \"steel\"]"),
+                     "[[pair]]", "bead", "glass", "end plates");
+  EXPECT_ERROR_NAMES(edit(kScene, "materials = [\"bead\", \"bead\"]", "materials = [\"steel\", \"steel\"]"),
+                     "[[pair]]", "\"bead\", \"bead\"");
+}
+
+TEST(CaseParser, DuplicatePairIsRejected) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "materials = [\"bead\", \"glass\"]", "materials = [\"steel\", \"bead\"]"),
+                     "[[pair]] #3", ".materials", "duplicate");
+}
+
+TEST(CaseParser, PeriodicDrumNeedsNoEndplatePair) {
+  std::string t = edit(kSpecExample, "endplate_material = \"glass\"", "axial_boundary = \"periodic\"");
+  t = edit(t, "materials = [\"bead\", \"glass\"]", "materials = [\"glass\", \"glass\"]");
+  const auto c = io::parse_case(t, "case.toml").config;
+  EXPECT_EQ(c.drum->axial_boundary, config::AxialBoundary::Periodic);
+  EXPECT_FALSE(c.drum->endplate_material);
+}
+
+TEST(CaseParser, PeriodicDrumMustHoldThreeCells) {
+  std::string t = edit(kSpecExample, "endplate_material = \"glass\"", "axial_boundary = \"periodic\"");
+  t = edit(t, "count = 19791", "count = 1000");
+  // 3 x (1 mm + 0.5 mm skin) = 4.5 mm < 5 mm: fine; 4 mm is too narrow.
+  EXPECT_TRUE(error_of(t).empty()) << error_of(t);
+  EXPECT_ERROR_NAMES(edit(t, "width_m = 0.005", "width_m = 0.004"), "[drum].width_m", "periodic");
+}
+
+TEST(CaseParser, DtMustBePositive) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 0"), "[run].dt_s = 0", "> 0");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = -1e-5"), "[run].dt_s");
+}
+
+TEST(CaseParser, DtAboveFortyPercentOfRayleighTimeIsRefused) {
+  // Glass beads 1 mm: T_R = 6.07e-5 s.
+  const double tr = contact::rayleigh_time_s(0.5e-3, 2550.0, 5e6, 0.22);
+  EXPECT_NEAR(tr, 6.07e-5, 0.01e-5);
+  const std::string t = edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 3.0e-5");
+  EXPECT_ERROR_NAMES(t, "[run].dt_s = 3e-05", "Rayleigh", "allow_large_dt");
+  const auto lc = io::parse_case(edit(t, "seed = 1", "seed = 1\nallow_large_dt = true"), "case.toml");
+  ASSERT_EQ(lc.warnings.size(), 1u);
+  EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos);
+  EXPECT_NEAR(io::smallest_rayleigh_time_s(lc.config), tr, 1e-12);
+}
+
+TEST(CaseParser, DtBetweenTwentyAndFortyPercentWarns) {
+  const auto lc = io::parse_case(kSpecExample, "case.toml");  // 24.7 %
+  ASSERT_EQ(lc.warnings.size(), 1u);
+  EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos);
+  EXPECT_NE(lc.warnings[0].find("24.7 %"), std::string::npos) << lc.warnings[0];
+  EXPECT_TRUE(io::parse_case(edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 1e-5"), "c").warnings.empty());
+}
+
+TEST(CaseParser, CountThatCannotBeInsertedIsRejected) {
+  // Drum volume 3.93e-5 m^3; 1 mm beads: 5.24e-10 m^3 each; 55 % holds 41,250.
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = 50000"), "[insertion].count = 50000", "55 %");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "width_m = 0.005", "width_m = 0.0009"), "[drum].width_m");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = 0.0009"), "[drum].diameter_m");
+}
+
+TEST(CaseParser, FillFractionImpliesCount) {
+  const std::string t = edit(kSpecExample, "count = 19791", "fill_fraction = 0.4");
+  const auto c = io::parse_case(t, "case.toml").config;
+  const double v_drum = M_PI * 0.05 * 0.05 * 0.005, v_bead = M_PI / 6.0 * 1e-9;
+  EXPECT_EQ(io::implied_particle_count(c), static_cast<std::uint64_t>(std::llround(0.4 * 0.6 * v_drum / v_bead)));
+  EXPECT_ERROR_NAMES(edit(t, "fill_fraction = 0.4", "fill_fraction = 0.99\nbulk_solid_fraction = 0.9"),
+                     "[insertion].fill_fraction", "55 %");
+}
+
+TEST(CaseParser, PolydisperseMeanVolumeIsNumberWeighted) {
+  std::string t = edit(kSpecExample, "[[population]]\nshape = \"bead1mm\"\nmaterial = \"bead\"\nvolume_fraction = 1.0",
+                       "[[population]]\nshape = \"bead1mm\"\nmaterial = \"bead\"\nvolume_fraction = 0.5\n"
+                       "[[population]]\nshape = \"bead2mm\"\nmaterial = \"bead\"\nvolume_fraction = 0.5\n"
+                       "[[shape]]\nname = \"bead2mm\"\nkind = \"sphere\"\ndiameter_m = 2e-3\n");
+  t = edit(t, "count = 19791", "count = 1000");
+  const auto c = io::parse_case(t, "case.toml").config;
+  const double v1 = M_PI / 6.0 * 1e-9, v2 = 8.0 * v1;
+  EXPECT_NEAR(io::mean_population_particle_volume_m3(c) / (1.0 / (0.5 / v1 + 0.5 / v2)), 1.0, 1e-12);
+}
+
+TEST(CaseParser, ExplicitParticleInsideWallIsRejected) {
+  const std::string t = edit(kScene, "position_m = [0, 0.001, 0]", "position_m = [0, 0.0004, 0]");
+  EXPECT_ERROR_NAMES(t, "[[particle]] #1 overlaps [[wall]] #1", "allow_initial_overlap");
+  EXPECT_TRUE(error_of(edit(t, "dt_s = 1.0e-5", "dt_s = 1.0e-5\nallow_initial_overlap = true")).empty());
+}
+
+TEST(CaseParser, OverlappingExplicitParticlesAreRejected) {
+  const std::string t = edit(kScene, "position_m = [0.002, 0.001, 0]", "position_m = [0.0009, 0.001, 0]");
+  EXPECT_ERROR_NAMES(t, "[[particle]] #1 overlaps [[particle]] #2", "0.0001 m", "allow_initial_overlap");
+  EXPECT_TRUE(error_of(edit(t, "dt_s = 1.0e-5", "dt_s = 1.0e-5\nallow_initial_overlap = true")).empty());
+  // Touching exactly is not an overlap.
+  EXPECT_TRUE(error_of(edit(kScene, "position_m = [0.002, 0.001, 0]", "position_m = [0.001, 0.001, 0]")).empty());
+}
+
+TEST(CaseParser, OverlapUsesClumpOrientation) {
+  // Two-sphere clump along x, offsets +-0.6 mm, r = 0.5 mm; second particle 1.5 mm up the y axis.
+  std::string t = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                       "kind = \"clump\"\nspheres = [[-6e-4, 0, 0, 5e-4], [6e-4, 0, 0, 5e-4]]");
+  t = edit(t, "position_m = [0, 0.001, 0]", "position_m = [0, 0.001, 0]\norientation = [1, 0, 0, 0]");
+  t = edit(t, "position_m = [0.002, 0.001, 0]", "position_m = [0, 0.0025, 0]");
+  EXPECT_TRUE(error_of(t).empty()) << error_of(t);
+  // Turned by 90 degrees about z, the first clump points up into the second one (and into the floor).
+  const std::string turned = edit(t, "orientation = [1, 0, 0, 0]", "orientation = [0.7071067811865476, 0, 0, 0.7071067811865476]");
+  EXPECT_ERROR_NAMES(turned, "[[particle]] #1 overlaps");
+}
+
+TEST(CaseParser, NothingToSimulateIsRejected) {
+  std::string t = kScene.substr(0, kScene.find("[[particle]]")) + "[[phase]]\nname = \"x\"\nsteps = 1\n";
+  t = edit(t, "[[shape]]\nname = \"b\"\nkind = \"sphere\"\ndiameter_m = 1e-3\n", "");
+  EXPECT_ERROR_NAMES(t, "nothing to simulate");
+}
+
+TEST(CaseParser, SyntaxErrorNamesFileAndLine) {
+  EXPECT_ERROR_NAMES("[run]\ndt_s = = 1\n", "case.toml:2:");
+}
+
+TEST(CaseParser, MissingFileIsNamed) {
+  try {
+    io::load_case("/nonexistent/dir/case.toml");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/case.toml"), std::string::npos);
+  }
+}
+
+TEST(CaseParser, LoadCaseReadsFile) {
+  const auto dir = std::filesystem::temp_directory_path() / ("biodem_case_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto path = (dir / "glass.toml").string();
+  std::ofstream(path) << kSpecExample;
+  const auto lc = io::load_case(path);
+  EXPECT_EQ(lc.config.source_path, path);
+  EXPECT_NE(lc.warnings.at(0).rfind(path, 0), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+// ------------------------------------------------------------------ report
+
+TEST(CaseReport, DescribesDerivedQuantities) {
+  const auto c = io::parse_case(edit(kSpecExample, "count = 19791", "fill_fraction = 0.4"), "case.toml").config;
+  const std::string r = io::describe_case(c);
+  for (const char* part : {"Rayleigh time", "d_eq", "mass", "inertia", "count = ", "particles across the width",
+                           "revolutions", "drum rotating", "sqrt(2 g D)", "% of the drum volume"})
+    EXPECT_NE(r.find(part), std::string::npos) << part << "\n" << r;
+}
+
+TEST(CaseReport, NeedleReportShowsSpheresAndLength) {
+  std::string t = edit(kSpecExample, "kind = \"sphere\"\ndiameter_m = 1.0e-3",
+                       "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 0.38");
+  t = edit(t, "coarse_grain = 1.0", "coarse_grain = 4.0");
+  t = edit(t, "count = 19791", "count = 10");
+  t = edit(t, "diameter_m = 0.100", "diameter_m = 0.400");
+  t = edit(t, "width_m = 0.005", "width_m = 0.020");
+  t = edit(t, "dt_s = 1.5e-5", "dt_s = 1e-5");
+  const auto lc = io::parse_case(t, "case.toml");
+  const std::string r = io::describe_case(lc.config);
+  EXPECT_NE(r.find("n_spb = 3"), std::string::npos) << r;
+  EXPECT_NE(r.find("clump length 0.007758"), std::string::npos) << r;  // 4 x 1940 um
+  EXPECT_NEAR(io::resolved_skin_m(lc.config), 2.0 * 746e-6, 1e-12);   // half of d = 4 x 746 um
+}
+
+// ------------------------------------------------------------------ output directory
+
+TEST(OutputDir, CreatesNestedDirectoryAndWritesAtomically) {
+  const auto base = std::filesystem::temp_directory_path() / ("biodem_out_test_" + std::to_string(::getpid()));
+  const auto dir = base / "a" / "b";
+  io::prepare_output_dir(dir.string());
+  EXPECT_TRUE(std::filesystem::is_directory(dir));
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator()), 0);
+  const auto file = (dir / "x.txt").string();
+  io::write_file_atomic(file, "one");
+  io::write_file_atomic(file, "two");
+  std::ifstream in(file);
+  std::string s;
+  in >> s;
+  EXPECT_EQ(s, "two");
+  EXPECT_FALSE(std::filesystem::exists(file + ".tmp"));
+  std::filesystem::remove_all(base);
+}
+
+TEST(OutputDir, PathUnderRegularFileIsRejected) {
+  const auto base = std::filesystem::temp_directory_path() / ("biodem_out_file_" + std::to_string(::getpid()));
+  std::ofstream(base.string()) << "x";
+  const std::string dir = (base / "sub").string();
+  try {
+    io::prepare_output_dir(dir);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("--out " + dir), std::string::npos) << msg;
+    EXPECT_NE(msg.find("cannot create directory"), std::string::npos) << msg;
+  }
+  try {
+    io::prepare_output_dir(base.string());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a directory"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(io::write_file_atomic((base / "f").string(), "x"), Error);
+  std::filesystem::remove(base);
+}
