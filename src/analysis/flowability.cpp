@@ -1,0 +1,119 @@
+#include "analysis/flowability.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+#include <sstream>
+#include <string>
+
+#include "core/error.hpp"
+
+namespace biodem::analysis {
+
+namespace {
+std::string deg(double v) {
+  std::ostringstream o;
+  o.precision(3);
+  o << v;
+  return o.str();
+}
+}  // namespace
+
+double rpm_from_revolution(const Series& s) {
+  if (s.revolution.size() != s.size())
+    throw Error("cannot determine the drum speed: the series has no revolution column; give --rpm");
+  std::vector<double> rates;
+  for (std::size_t i = 0; i + 1 < s.size(); ++i) {
+    const double dt = s.time_s[i + 1] - s.time_s[i];
+    const double dr = s.revolution[i + 1] - s.revolution[i];
+    if (dt > 0.0 && dr > 0.0 && std::isfinite(dr)) rates.push_back(dr / dt);
+  }
+  if (rates.empty())
+    throw Error(
+        "cannot determine the drum speed: the revolution column never increases; give --rpm");
+  std::nth_element(rates.begin(), rates.begin() + static_cast<std::ptrdiff_t>(rates.size() / 2),
+                   rates.end());
+  return 60.0 * rates[rates.size() / 2];
+}
+
+FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions& opt) {
+  FlowabilityResult res;
+  const std::size_t n = s.size();
+  if (n < kMinSamples) {
+    std::ostringstream m;
+    m << "too few samples: the series has " << n << ", need at least " << kMinSamples;
+    throw Error(m.str());
+  }
+  if (opt.rpm) {
+    if (!(*opt.rpm > 0.0) || !std::isfinite(*opt.rpm)) throw Error("--rpm must be > 0");
+    res.rpm = *opt.rpm;
+  } else {
+    res.rpm = rpm_from_revolution(s);
+    res.rpm_from_series = true;
+  }
+  if (opt.events.min_drop_deg && !(*opt.events.min_drop_deg > 0.0))
+    throw Error("--min-drop-deg must be > 0");
+  if (opt.skip_s && !(*opt.skip_s >= 0.0)) throw Error("--skip-s must be >= 0");
+  if (opt.skip_rev && !(*opt.skip_rev >= 0.0)) throw Error("--skip-rev must be >= 0");
+
+  // The analysis starts where the drum starts turning (a simulation's settle phase has a
+  // constant revolution), then skips the requested transient.
+  std::size_t first = 0;
+  const bool has_rev = s.revolution.size() == n;
+  if (has_rev) {
+    std::size_t i = 0;
+    while (i + 1 < n && !(s.revolution[i + 1] > s.revolution[i])) ++i;
+    if (i + 1 < n) first = i;  // a revolution column that never moves: analyse everything
+  }
+  const double t0 = s.time_s[first];
+  const double r0 = has_rev ? s.revolution[first] : 0.0;
+  std::size_t start = first;
+  while (start < n && ((opt.skip_s && s.time_s[start] < t0 + *opt.skip_s - 1e-12) ||
+                       (opt.skip_rev && has_rev && s.revolution[start] < r0 + *opt.skip_rev - 1e-12)))
+    ++start;
+  if (opt.skip_rev && !has_rev) throw Error("--skip-rev needs a revolution column");
+  const std::size_t used = n - start;
+  if (used < kMinSamples) {
+    std::ostringstream m;
+    m << "too few samples: " << used << " left to analyse";
+    if (start > 0) m << " after skipping " << start << " of " << n;
+    m << ", need at least " << kMinSamples;
+    throw Error(m.str());
+  }
+  res.first_sample = start;
+  res.samples_used = used;
+
+  auto sub = [&](const std::vector<double>& v) {
+    return v.size() == n ? std::span<const double>(v).subspan(start) : std::span<const double>{};
+  };
+  res.detection = detect_events(sub(s.time_s), sub(s.revolution), sub(s.alpha_deg), res.rpm,
+                                opt.events);
+  for (auto& e : res.detection.events) {
+    e.start_index += start;
+    e.end_index += start;
+  }
+
+  for (const auto& e : res.detection.events) {
+    res.values[0].push_back(e.uas_deg);
+    res.values[1].push_back(e.drop_deg);
+    if (e.f_percent) res.values[2].push_back(*e.f_percent);
+  }
+  for (double r2 : sub(s.surface_r2))
+    if (std::isfinite(r2)) res.values[3].push_back(r2);
+  for (std::size_t k = 0; k < res.values.size(); ++k)
+    res.distributions[k] = describe(res.values[k]);
+
+  if (res.detection.events.empty())
+    res.warnings.push_back("no events found (threshold " +
+                           deg(res.detection.threshold_deg) +
+                           " deg); UAS, avalanche size and f are empty");
+  else if (res.detection.events.size() == 1)
+    res.warnings.push_back("only one event found: f needs two");
+  if (res.detection.threshold_from_noise && res.detection.threshold_deg > 1.0)
+    res.warnings.push_back("the series is noisy: the default event threshold is " +
+                           deg(res.detection.threshold_deg) +
+                           " deg, small (glass-bead) avalanches may be missed; see --min-drop-deg");
+  return res;
+}
+
+}  // namespace biodem::analysis

@@ -1,0 +1,47 @@
+// The flowability analysis of one drum time series (SPEC 6): which samples are analysed, the
+// drum speed, the events and the distributions of UAS, avalanche size, f and r^2. Pure
+// computation on a Series (no files): `biodem analyze` and `biodem compare` share it.
+#pragma once
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/distributions.hpp"
+#include "analysis/events.hpp"
+#include "analysis/series.hpp"
+
+namespace biodem::analysis {
+
+struct FlowabilityOptions {
+  EventParams events;
+  std::optional<double> rpm;       // drum speed; default: from the revolution column
+  std::optional<double> skip_s;    // drop the first T seconds of the analysed part
+  std::optional<double> skip_rev;  // drop the first R revolutions of the analysed part
+};
+
+inline constexpr std::size_t kMinSamples = 3;
+
+struct FlowabilityResult {
+  double rpm = 0.0;
+  bool rpm_from_series = false;
+  std::size_t first_sample = 0;   // index of the first analysed sample in the series
+  std::size_t samples_used = 0;   // from first_sample to the end
+  EventDetection detection;
+  // Raw values and their distributions, in descriptor_table() order:
+  // uas_deg, drop_deg, f_percent, surface_r2.
+  std::array<std::vector<double>, 4> values;
+  std::array<Distribution, 4> distributions;
+  std::vector<std::string> warnings;
+};
+
+/// Drum speed from the slope of the revolution column (revolution = rpm t / 60 while the drum
+/// turns): 60 x the median of (delta revolution / delta t) over the steps where the revolution
+/// increases. Throws biodem::Error when the column is missing or never increases.
+double rpm_from_revolution(const Series& s);
+
+/// Throws biodem::Error on too few samples or an undeterminable speed.
+FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions& opt);
+
+}  // namespace biodem::analysis

@@ -1,0 +1,230 @@
+// Avalanche events on synthetic centroid-angle series with planted events (SPEC 6): every
+// planted event is found, none is invented, UAS, drop and f are exact to the sampling precision.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "analysis/events.hpp"
+#include "analysis/flowability.hpp"
+#include "core/error.hpp"
+#include "test_analysis_helpers.hpp"
+
+using namespace biodem;
+using namespace biodem::analysis;
+
+namespace {
+
+constexpr double kDt = 0.02;     // 50 Hz, as the camera
+constexpr double kRpm = 0.5;     // the study's drum speed
+constexpr double kRise = kRpm * 360.0 / 60.0 * kDt;  // 0.06 deg per sample of solid-body rise
+
+struct Planted {
+  std::size_t peak;      // sample index of the maximum
+  double drop_deg;
+  std::size_t duration;  // samples from the maximum to the minimum
+};
+
+struct Synthetic {
+  std::vector<double> t, rev, clean, alpha;
+};
+
+// alpha rises with the drum at kRise per sample and falls linearly during each planted event.
+Synthetic sawtooth(const std::vector<Planted>& ev, std::size_t n, double noise, std::uint64_t seed,
+                   double alpha0 = 40.0) {
+  Synthetic s;
+  test::Noise rng(seed);
+  s.clean.assign(n, alpha0);
+  for (std::size_t i = 1; i < n; ++i) {
+    double step = kRise;
+    for (const auto& e : ev)
+      if (i > e.peak && i <= e.peak + e.duration) step = -e.drop_deg / static_cast<double>(e.duration);
+    s.clean[i] = s.clean[i - 1] + step;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    s.t.push_back(static_cast<double>(i) * kDt);
+    s.rev.push_back(kRpm * s.t.back() / 60.0);
+    s.alpha.push_back(s.clean[i] + rng.uniform(noise));
+  }
+  return s;
+}
+
+// Glass-bead-like events (tenths of a degree) mixed with biomass-like ones (several degrees).
+const std::vector<Planted> kMixed{{100, 0.4, 2},  {180, 0.3, 2},  {230, 0.25, 1}, {400, 12.0, 25},
+                                  {700, 0.5, 4},  {760, 5.0, 10}, {950, 0.2, 3}};
+
+}  // namespace
+
+// Tolerances: start/end indices exact (the rise per sample, 0.06 deg, exceeds twice the noise
+// amplitude, 0.01 deg, so noise cannot move an extremum); UAS within the noise amplitude; drop
+// within twice it; interval and f to rounding.
+TEST(AnalysisEvents, PlantedMixedEventsAreFoundExactly) {
+  const double a = 0.01;
+  const auto s = sawtooth(kMixed, 1100, a, 7);
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, EventParams{});
+  EXPECT_TRUE(det.threshold_from_noise);
+  EXPECT_LT(det.threshold_deg, 0.2) << "the default must keep glass-bead events";
+  EXPECT_GE(det.threshold_deg, 2.0 * a) << "the default must be above the noise";
+  ASSERT_EQ(det.events.size(), kMixed.size());
+  for (std::size_t k = 0; k < kMixed.size(); ++k) {
+    const auto& e = det.events[k];
+    const auto& p = kMixed[k];
+    EXPECT_EQ(e.start_index, p.peak) << "event " << k;
+    EXPECT_EQ(e.end_index, p.peak + p.duration) << "event " << k;
+    EXPECT_DOUBLE_EQ(e.start_time_s, static_cast<double>(p.peak) * kDt);
+    EXPECT_NEAR(e.uas_deg, s.clean[p.peak], a + 1e-12) << "event " << k;
+    EXPECT_NEAR(e.drop_deg, p.drop_deg, 2 * a + 1e-12) << "event " << k;
+    EXPECT_NEAR(e.start_revolution, kRpm * e.start_time_s / 60.0, 1e-12);
+    if (k + 1 < kMixed.size()) {
+      const double T = static_cast<double>(kMixed[k + 1].peak - p.peak) * kDt;
+      ASSERT_TRUE(e.interval_s.has_value());
+      EXPECT_NEAR(*e.interval_s, T, 1e-9);
+      ASSERT_TRUE(e.f_percent.has_value());
+      EXPECT_NEAR(*e.f_percent, kRpm * T / 60.0 * 100.0, 1e-9);
+    } else {
+      EXPECT_FALSE(e.interval_s.has_value());
+      EXPECT_FALSE(e.f_percent.has_value());
+    }
+  }
+}
+
+// Wiggles below the threshold (0.05 deg floor here): a 0.03 deg rebound inside a slow drop must
+// not split it, a 0.03 deg dip during the rise must not become an event.
+TEST(AnalysisEvents, WigglesBelowThresholdNeitherCreateNorSplitEvents) {
+  const std::vector<Planted> ev{{100, 0.4, 2}, {400, 3.0, 100}, {700, 0.3, 3}};
+  auto s = sawtooth(ev, 900, 0.005, 11);
+  s.alpha[450] += 0.06;  // drop step is 0.03 per sample: a rebound of 0.03 deg
+  s.alpha[300] -= 0.09;  // rise is 0.06 per sample: a dip of 0.03 deg
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, EventParams{});
+  EXPECT_DOUBLE_EQ(det.threshold_deg, 0.05);
+  ASSERT_EQ(det.events.size(), 3u);
+  EXPECT_EQ(det.events[1].start_index, 400u);
+  EXPECT_EQ(det.events[1].end_index, 500u);
+  EXPECT_NEAR(det.events[1].drop_deg, 3.0, 0.01 + 1e-12);
+}
+
+// An explicit threshold (--min-drop-deg) keeps only the larger drops; T is then the time between
+// the starts of the retained events.
+TEST(AnalysisEvents, ExplicitThresholdKeepsOnlyLargerDrops) {
+  const auto s = sawtooth(kMixed, 1100, 0.01, 7);
+  EventParams p;
+  p.min_drop_deg = 1.0;
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, p);
+  EXPECT_FALSE(det.threshold_from_noise);
+  ASSERT_EQ(det.events.size(), 2u);
+  EXPECT_EQ(det.events[0].start_index, 400u);
+  EXPECT_EQ(det.events[1].start_index, 760u);
+  EXPECT_NEAR(*det.events[0].interval_s, 360 * kDt, 1e-9);
+}
+
+// A series that begins inside an avalanche: its first maximum is not a real one (no rise of the
+// threshold before it), so that partial event is not counted.
+TEST(AnalysisEvents, SeriesStartingInsideAnAvalancheSkipsThePartialEvent) {
+  const auto s = sawtooth({{0, 3.0, 20}, {300, 2.0, 10}, {600, 1.0, 5}}, 800, 0.01, 3);
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, EventParams{});
+  ASSERT_EQ(det.events.size(), 2u);
+  EXPECT_EQ(det.events[0].start_index, 300u);
+  EXPECT_EQ(det.events[1].start_index, 600u);
+}
+
+// The noise estimate (MAD of second differences) ignores the drum's steady rise and the events;
+// the default threshold 8 sigma then keeps 0.4 deg events in 0.02 deg Gaussian noise and invents
+// none over 5000 samples. Tolerance: sigma within 15 %.
+TEST(AnalysisEvents, NoiseEstimateIsRobustAndDefaultThresholdInventsNothing) {
+  std::vector<Planted> ev;
+  for (std::size_t k = 0; k < 40; ++k) ev.push_back({100 + 120 * k, k % 4 == 0 ? 6.0 : 0.4, 3});
+  auto s = sawtooth(ev, 5000, 0.0, 1);
+  test::Noise rng(99);
+  for (std::size_t i = 0; i < s.alpha.size(); ++i) s.alpha[i] = s.clean[i] + rng.gaussian(0.02);
+  const double sigma = estimate_noise_sigma(s.alpha);
+  EXPECT_NEAR(sigma, 0.02, 0.003);
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, EventParams{});
+  EXPECT_NEAR(det.threshold_deg, 8.0 * sigma, 1e-12);
+  ASSERT_EQ(det.events.size(), ev.size());
+  for (std::size_t k = 0; k < ev.size(); ++k) {
+    EXPECT_LE(std::abs(static_cast<long>(det.events[k].start_index) - static_cast<long>(ev[k].peak)), 2);
+    EXPECT_NEAR(det.events[k].drop_deg, ev[k].drop_deg, 0.15);
+  }
+}
+
+TEST(AnalysisEvents, NoiseFreeSeriesUsesTheFloor) {
+  const auto s = sawtooth({{100, 0.1, 1}, {200, 0.1, 1}}, 300, 0.0, 1);
+  const auto det = detect_events(s.t, s.rev, s.alpha, kRpm, EventParams{});
+  EXPECT_DOUBLE_EQ(det.threshold_deg, EventParams{}.floor_deg);
+  EXPECT_EQ(det.events.size(), 2u);
+}
+
+TEST(AnalysisEvents, EmptyAndConstantSeriesHaveNoEvents) {
+  EXPECT_TRUE(find_drops(std::vector<double>{}, 0.1).empty());
+  EXPECT_TRUE(find_drops(std::vector<double>(100, 42.0), 0.1).empty());
+  EXPECT_THROW(find_drops(std::vector<double>{1, 2, 3}, 0.0), std::invalid_argument);
+}
+
+// The whole analysis of one series: speed from the revolution column, a settle phase (drum at
+// rest, revolution constant) is not analysed, --skip-s removes the first seconds of rotation.
+TEST(AnalysisFlowability, SpeedSettlePhaseAndSkip) {
+  const auto r = sawtooth(kMixed, 1100, 0.01, 7);
+  Series s;
+  // 100 samples of settling: the bed slumps by 3 deg, revolution stays 0.
+  for (std::size_t i = 0; i < 100; ++i) {
+    s.time_s.push_back(static_cast<double>(i) * kDt);
+    s.revolution.push_back(0.0);
+    s.alpha_deg.push_back(i < 50 ? 43.0 : 40.0);
+  }
+  for (std::size_t i = 0; i < r.t.size(); ++i) {
+    s.time_s.push_back(r.t[i] + 100 * kDt);
+    s.revolution.push_back(r.rev[i]);
+    s.alpha_deg.push_back(r.alpha[i]);
+  }
+  FlowabilityOptions o;
+  auto res = analyze_flowability(s, o);
+  EXPECT_TRUE(res.rpm_from_series);
+  EXPECT_NEAR(res.rpm, kRpm, 1e-9);
+  EXPECT_EQ(res.first_sample, 100u);  // the last sample at rest
+  ASSERT_EQ(res.detection.events.size(), kMixed.size());
+  EXPECT_EQ(res.detection.events[0].start_index, 100 + kMixed[0].peak);
+  EXPECT_EQ(res.values[0].size(), kMixed.size());
+  EXPECT_EQ(res.values[2].size(), kMixed.size() - 1);
+  EXPECT_EQ(res.distributions[3].count, 0u);  // no r^2 column
+
+  o.skip_s = 5.0;  // drops the events at samples 100, 180 and 230 (t < 5 s after rotation starts)
+  res = analyze_flowability(s, o);
+  ASSERT_EQ(res.detection.events.size(), kMixed.size() - 3);
+  EXPECT_EQ(res.detection.events[0].start_index, 100 + kMixed[3].peak);
+
+  o.skip_s.reset();
+  o.rpm = 1.0;  // given speed wins over the column
+  res = analyze_flowability(s, o);
+  EXPECT_FALSE(res.rpm_from_series);
+  EXPECT_NEAR(*res.detection.events[0].f_percent, 1.0 * 80 * kDt / 60.0 * 100.0, 1e-9);
+}
+
+TEST(AnalysisFlowability, BadInputsGiveClearErrors) {
+  Series s;
+  s.time_s = {0.0, 0.02};
+  s.revolution = {0.0, 0.001};
+  s.alpha_deg = {40.0, 40.1};
+  try {
+    analyze_flowability(s, {});
+    FAIL() << "two samples accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("too few samples"), std::string::npos) << e.what();
+  }
+  s.time_s = {0.0, 0.02, 0.04, 0.06};
+  s.revolution = {0.0, 0.0, 0.0, 0.0};
+  s.alpha_deg = {40.0, 40.1, 40.2, 40.3};
+  try {
+    analyze_flowability(s, {});
+    FAIL() << "speed invented";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("--rpm"), std::string::npos) << e.what();
+  }
+  FlowabilityOptions o;
+  o.rpm = 0.5;
+  o.skip_s = 10.0;
+  EXPECT_THROW(analyze_flowability(s, o), Error);
+  o.skip_s.reset();
+  o.events.min_drop_deg = -1.0;
+  EXPECT_THROW(analyze_flowability(s, o), Error);
+}
