@@ -621,3 +621,42 @@ TEST(OutputDir, PathUnderRegularFileIsRejected) {
   EXPECT_THROW(io::write_file_atomic((base / "f").string(), "x"), Error);
   std::filesystem::remove(base);
 }
+
+TEST(CaseParser, WallKinds) {
+  const std::string cyl = edit(kScene, "kind = \"plane\"\nmaterial = \"steel\"\npoint_m = [0, 0, 0]\nnormal = [0, 2, 0]",
+                               "kind = \"cylinder\"\nmaterial = \"steel\"\npoint_m = [0, 0, -1]\naxis = [0, 0, 3]\n"
+                               "radius_m = 0.05\nangular_velocity_rad_s = 0.1");
+  const auto c = io::parse_case(cyl, "case.toml").config;
+  EXPECT_EQ(c.walls[0].kind, config::WallKind::Cylinder);
+  EXPECT_DOUBLE_EQ(c.walls[0].normal[2], 1.0);
+  EXPECT_DOUBLE_EQ(c.walls[0].length_m, 0.0);
+  EXPECT_DOUBLE_EQ(c.walls[0].angular_velocity_rad_s, 0.1);
+  EXPECT_ERROR_NAMES(edit(cyl, "radius_m = 0.05", "radius_m = 0.0005"), "[[particle]] #1 overlaps [[wall]] #1");
+  EXPECT_ERROR_NAMES(edit(cyl, "axis = [0, 0, 3]", "normal = [0, 0, 3]"), "[[wall]] #1 .normal", "cylinder");
+  EXPECT_ERROR_NAMES(edit(kScene, "normal = [0, 2, 0]", "normal = [0, 0, 0]"), "[[wall]] #1 .normal", "non-zero");
+  EXPECT_ERROR_NAMES(edit(kScene, "kind = \"plane\"", "kind = \"disc\""), "[[wall]] #1 .radius_m", "missing");
+  EXPECT_ERROR_NAMES(edit(kScene, "kind = \"plane\"", "kind = \"sheet\""), "[[wall]] #1 .kind");
+}
+
+TEST(CaseParser, DomainRules) {
+  const std::string t = kScene + "\n[domain]\nmin_m = [-0.01, 0, -0.01]\nmax_m = [0.01, 0.02, 0.01]\n"
+                                 "periodic = [true, false, true]\n";
+  const auto c = io::parse_case(t, "case.toml").config;
+  ASSERT_TRUE(c.domain);
+  EXPECT_TRUE(c.domain->periodic[0]);
+  EXPECT_FALSE(c.domain->periodic[1]);
+  EXPECT_ERROR_NAMES(edit(t, "max_m = [0.01, 0.02, 0.01]", "max_m = [0.01, 0.0, 0.01]"), "[domain].max_m");
+  EXPECT_ERROR_NAMES(edit(t, "periodic = [true, false, true]", "periodic = [1, 0, 1]"), "[domain].periodic");
+  EXPECT_ERROR_NAMES(edit(t, "max_m = [0.01, 0.02, 0.01]", "max_m = [-0.008, 0.02, 0.01]"), "[domain].max_m",
+                     "periodic length along x");
+}
+
+TEST(CaseParser, OutputRules) {
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "sample_hz = 50.0", "sample_hz = 0"), "[output].sample_hz");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "snapshot_every_s = 1.0", "snapshot_every_s = -1.0"),
+                     "[output].snapshot_every_s");
+  const auto c = io::parse_case(edit(kSpecExample, "trace = false", "trace = true\nframe_every_s = 0.02"), "c").config;
+  EXPECT_TRUE(c.output.trace);
+  EXPECT_EQ(c.output.frame_size_px, 512u);
+  EXPECT_DOUBLE_EQ(*c.output.frame_every_s, 0.02);
+}
