@@ -844,8 +844,8 @@ class CaseParser {
   void check_initial_overlaps() const {
     if (cfg_.run.allow_initial_overlap || cfg_.particles.empty()) return;
     const std::string hint = " (set [run] allow_initial_overlap = true to allow it)";
-    // Spheres in the lab frame. An explicit particle's orientation maps the template's body
-    // (principal) frame to the lab frame: centre = position + rotate(q, principal-frame offset).
+    // Spheres in the lab frame. An explicit particle's orientation is relative to the frame its
+    // shape was written in (identity shows the shape as written): shapes::body_orientation.
     // Drum walls are not checked here (explicit particles in a drum are unusual, and the drum's
     // placement belongs to the engine); periodic images are not checked either.
     struct S {
@@ -858,7 +858,7 @@ class CaseParser {
     for (std::size_t i = 0; i < cfg_.particles.size(); ++i) {
       const auto& p = cfg_.particles[i];
       const auto& t = templates_.at(p.shape);
-      const Quat q{p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]};
+      const Quat q = shapes::body_orientation(t, Quat{p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3]});
       const Vec3 x{p.position_m[0], p.position_m[1], p.position_m[2]};
       for (std::size_t k = 0; k < t.sphere_count(); ++k) {
         spheres.push_back({x + rotate(q, t.offsets_m[k]), t.radii_m[k], i});

@@ -42,3 +42,9 @@ NeedleGeometry needle_geometry(double d_m, double aspect_ratio, double overlap_f
 ClumpTemplate make_template(const config::Shape& shape, double coarse_grain);
 
 }  // namespace biodem::shapes
+
+namespace biodem::shapes {
+/// Orientation of a body (principal frame -> lab) for a particle whose orientation is given
+/// relative to the frame its shape was written in: identity shows the shape as written.
+inline Quat body_orientation(const ClumpTemplate& t, const Quat& given) { return normalized(given * t.principal_frame); }
+}  // namespace biodem::shapes
