@@ -325,6 +325,7 @@ RunSummary Runner::run() {
   sample();
   snapshot();
   for (std::size_t i = 0; i < phases.size(); ++i) run_phase(phases[i], i);
+  if (sim_.step_count() % sample_every_ != 0) sample();  // the series always ends at the final state
   if (!snapshot_every_ || sim_.step_count() % snapshot_every_ != 0) snapshot();
   series_->flush();
   if (trace_) trace_->flush();

@@ -1,0 +1,72 @@
+// Helpers for tests that drive the biodem binary like a user does.
+#pragma once
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace biodem::testing {
+
+struct CommandResult {
+  int status = -1;
+  std::string output;  // stdout and stderr together
+};
+
+inline CommandResult run_command(const std::string& cmd) {
+  CommandResult r;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf{};
+  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
+  const int st = pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+inline std::string biodem_exe() { return BIODEM_BINARY; }
+inline std::string source_dir() { return BIODEM_SOURCE_DIR; }
+
+/// A fresh, empty directory under the build tree's test folder.
+inline std::string fresh_dir(const std::string& name) {
+  const auto p = std::filesystem::current_path() / ("out_" + name);
+  std::filesystem::remove_all(p);
+  return p.string();
+}
+
+/// Reads a CSV with a header row into columns of strings.
+inline std::map<std::string, std::vector<std::string>> read_csv(const std::string& path) {
+  std::map<std::string, std::vector<std::string>> cols;
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> header;
+  if (!std::getline(in, line)) return cols;
+  {
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) header.push_back(c);
+  }
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string c;
+    for (std::size_t k = 0; k < header.size(); ++k) {
+      if (!std::getline(ss, c, ',')) c.clear();
+      cols[header[k]].push_back(c);
+    }
+  }
+  return cols;
+}
+
+inline std::vector<double> to_numbers(const std::vector<std::string>& v) {
+  std::vector<double> out;
+  for (const auto& s : v) out.push_back(s.empty() ? std::nan("") : std::stod(s));
+  return out;
+}
+
+}  // namespace biodem::testing
