@@ -14,7 +14,7 @@ using namespace biodem::testing;
 TEST(DrumSmoke, GlassBeadsSettleRotateAndTilt) {
   const std::string out = fresh_dir("drum_smoke");
   const auto r = run_command(biodem_exe() + " run " + source_dir() + "/tests/cases/glass_smoke.toml --out " + out +
-                             " --threads 2");
+                             " --threads 1");
   ASSERT_EQ(r.status, 0) << r.output;
 
   auto series = read_csv(out + "/series.csv");
