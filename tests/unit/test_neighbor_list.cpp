@@ -1,0 +1,254 @@
+// The Verlet list against brute force (SPEC 10; neighbor/verlet_list.hpp): on random
+// polydisperse packings with and without periodic axes and with clumps (spheres of one body
+// never interact), the set of list entries whose spheres overlap equals the set of overlapping
+// pairs found by brute force; the list stays complete while no sphere has moved more than half
+// the skin, is complete again after a rebuild, and carries the contact history of pairs that
+// stay in contact over a rebuild. Exact comparisons (sets of index pairs): no tolerance.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "neighbor/verlet_list.hpp"
+#include "state/particle_store.hpp"
+
+using namespace biodem;
+using namespace biodem::neighbor;
+
+namespace {
+
+using PairList = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
+constexpr double kL = 20e-3;     // box edge
+constexpr double kSkin = 0.3e-3;
+
+double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+
+/// Random polydisperse packing (radii 0.3-1.0 mm, overlaps allowed: ~200 overlapping pairs)
+/// of `n_bodies` bodies of 1-4 spheres each (clump members overlap each other). On periodic
+/// axes some spheres are placed one or two box lengths outside [0, L): positions are never
+/// wrapped in the engine, so the list must handle them.
+state::SphereStore make_packing(std::uint64_t seed, std::size_t n_bodies, const Domain& dom, bool clumps) {
+  std::mt19937_64 g(seed);
+  state::SphereStore s;
+  for (std::uint32_t b = 0; b < n_bodies; ++b) {
+    const std::size_t members = clumps ? 1 + g() % 4 : 1;
+    Vec3 c{kL * uniform(g), kL * uniform(g), kL * uniform(g)};
+    for (int a = 0; a < 3; ++a)
+      if (dom.periodic[a] && g() % 5 == 0) c[a] += kL * (static_cast<int>(g() % 5) - 2);
+    for (std::size_t k = 0; k < members; ++k) {
+      const double r = 0.3e-3 + 0.7e-3 * uniform(g);
+      const Vec3 off = k == 0 ? Vec3{} : Vec3{uniform(g) - 0.5, uniform(g) - 0.5, uniform(g) - 0.5} * 1.0e-3;
+      s.position_m.push_back(c + off);
+      s.velocity_m_s.push_back({});
+      s.angular_velocity_rad_s.push_back({});
+      s.radius_m.push_back(r);
+      s.offset_body_m.push_back(off);
+      s.body.push_back(b);
+      s.material.push_back(0);
+      s.body_mass_kg.push_back(1.0);
+      s.force_n.push_back({});
+      s.torque_n_m.push_back({});
+    }
+  }
+  return s;
+}
+
+/// Independent brute force: smallest separation over all 27 images on periodic axes.
+PairList brute_force_within(const state::SphereStore& s, const Domain& dom, double extra) {
+  PairList out;
+  for (std::uint32_t i = 0; i < s.size(); ++i)
+    for (std::uint32_t j = i + 1; j < s.size(); ++j) {
+      if (s.body[i] == s.body[j]) continue;
+      const Vec3 d0 = s.position_m[i] - s.position_m[j];
+      double best = 1e300;
+      for (int ix = -1; ix <= 1; ++ix)
+        for (int iy = -1; iy <= 1; ++iy)
+          for (int iz = -1; iz <= 1; ++iz) {
+            const int im[3] = {ix, iy, iz};
+            Vec3 d = d0;
+            bool ok = true;
+            for (int a = 0; a < 3; ++a) {
+              if (!dom.periodic[a]) {
+                if (im[a] != 0) ok = false;
+                continue;
+              }
+              d[a] -= kL * std::round(d[a] / kL) + im[a] * kL;
+            }
+            if (ok) best = std::min(best, norm2(d));
+          }
+      const double c = s.radius_m[i] + s.radius_m[j] + extra;
+      if (best < c * c) out.emplace_back(i, j);
+    }
+  return out;
+}
+
+/// Entries of the list whose spheres overlap (with the entry's own image shift).
+PairList list_overlaps(const VerletList& L, const state::SphereStore& s) {
+  PairList out;
+  for (std::uint32_t i = 0; i < s.size(); ++i)
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      const Vec3 d = s.position_m[i] - s.position_m[j] - L.shift(k);
+      const double c = s.radius_m[i] + s.radius_m[j];
+      if (norm2(d) < c * c) out.emplace_back(i, j);
+    }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+PairList list_pairs(const VerletList& L, std::size_t n) {
+  PairList out;
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) out.emplace_back(i, L.j[k]);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+Domain make_domain(std::array<bool, 3> periodic) {
+  Domain d;
+  d.periodic = periodic;
+  d.lo_m = {0, 0, 0};
+  d.hi_m = {kL, kL, kL};
+  return d;
+}
+
+void check_list(const VerletList& L, const state::SphereStore& s, const Domain& dom) {
+  const PairList brute = brute_force_overlaps(s, dom);
+  // The engine's reference agrees with the independent 27-image brute force.
+  EXPECT_EQ(brute, brute_force_within(s, dom, 0.0));
+  EXPECT_EQ(list_overlaps(L, s), brute);
+  // Every pair within r_i + r_j + skin is listed, once, never within one body, j > i.
+  const PairList listed = list_pairs(L, s.size());
+  EXPECT_TRUE(std::adjacent_find(listed.begin(), listed.end()) == listed.end()) << "duplicate entry";
+  for (const auto& p : brute_force_within(s, dom, 0.999 * kSkin))
+    EXPECT_TRUE(std::binary_search(listed.begin(), listed.end(), p)) << p.first << "-" << p.second;
+  for (const auto& [i, j] : listed) {
+    EXPECT_LT(i, j);
+    EXPECT_NE(s.body[i], s.body[j]);
+  }
+  // Reverse index: every entry appears exactly once, under its j.
+  std::size_t rev = 0;
+  for (std::uint32_t j = 0; j < s.size(); ++j)
+    for (std::uint32_t q = L.rev_start[j]; q < L.rev_start[j + 1]; ++q, ++rev) EXPECT_EQ(L.j[L.rev_entry[q]], j);
+  EXPECT_EQ(rev, L.entries());
+}
+
+struct Variant {
+  const char* name;
+  std::array<bool, 3> periodic;
+  bool clumps;
+};
+
+const Variant kVariants[] = {
+    {"open, spheres", {false, false, false}, false},
+    {"open, clumps", {false, false, false}, true},
+    {"periodic x, clumps", {true, false, false}, true},
+    {"periodic y z, spheres", {false, true, true}, false},
+    {"periodic xyz, spheres", {true, true, true}, false},
+    {"periodic xyz, clumps", {true, true, true}, true},
+};
+
+}  // namespace
+
+TEST(VerletList, OverlapsEqualBruteForceOnRandomPackings) {
+  std::uint64_t seed = 1;
+  for (const Variant& v : kVariants) {
+    SCOPED_TRACE(v.name);
+    const Domain dom = make_domain(v.periodic);
+    state::SphereStore s = make_packing(seed++, v.clumps ? 250 : 600, dom, v.clumps);
+    ASSERT_GT(s.size(), 500u);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    const std::size_t n_overlaps = brute_force_overlaps(s, dom).size();
+    EXPECT_GT(n_overlaps, 100u);  // the packing must actually contain contacts
+    std::printf("[measured] %s: %zu spheres, %zu entries, %zu overlapping pairs\n", v.name, s.size(), L.entries(),
+                n_overlaps);
+    check_list(L, s, dom);
+  }
+}
+
+TEST(VerletList, StaysCompleteWithinHalfSkinAndAfterRebuild) {
+  std::uint64_t seed = 100;
+  for (const Variant& v : kVariants) {
+    SCOPED_TRACE(v.name);
+    const Domain dom = make_domain(v.periodic);
+    state::SphereStore s = make_packing(seed++, v.clumps ? 250 : 600, dom, v.clumps);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    std::mt19937_64 g(seed);
+    // Small moves (each sphere by < skin/2): no rebuild needed and every new overlap is listed.
+    for (auto& x : s.position_m) {
+      Vec3 dir{uniform(g) - 0.5, uniform(g) - 0.5, uniform(g) - 0.5};
+      x += normalized(dir) * (0.49 * kSkin * uniform(g));
+    }
+    EXPECT_FALSE(L.needs_rebuild(s));
+    EXPECT_EQ(list_overlaps(L, s), brute_force_overlaps(s, dom));
+    // Large moves (up to 2 mm, across periodic boundaries): a rebuild is needed and correct.
+    for (auto& x : s.position_m) x += Vec3{uniform(g) - 0.5, uniform(g) - 0.5, uniform(g) - 0.5} * 4e-3;
+    EXPECT_TRUE(L.needs_rebuild(s));
+    L.build(s);
+    EXPECT_EQ(L.builds(), 2u);
+    check_list(L, s, dom);
+  }
+}
+
+TEST(VerletList, HistoryOfPairsThatStayInContactSurvivesRebuild) {
+  for (const Variant& v : kVariants) {
+    SCOPED_TRACE(v.name);
+    const Domain dom = make_domain(v.periodic);
+    state::SphereStore s = make_packing(7, v.clumps ? 250 : 600, dom, v.clumps);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    // Mark the overlapping entries as touching, with a history that names the pair.
+    std::map<std::pair<std::uint32_t, std::uint32_t>, contact::ContactHistory> expected;
+    for (std::uint32_t i = 0; i < s.size(); ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const std::uint32_t j = L.j[k];
+        contact::ContactHistory h{{1e-9 * i, 1e-9 * j, 1.0}, {double(i), double(j), -1.0}};
+        const Vec3 d = s.position_m[i] - s.position_m[j] - L.shift(k);
+        const bool overlap = norm(d) < s.radius_m[i] + s.radius_m[j];
+        L.history[k] = h;  // set on every entry: only touching ones may carry it over
+        L.touching[k] = overlap ? 1 : 0;
+        if (overlap) expected[{i, j}] = h;
+      }
+    ASSERT_GT(expected.size(), 100u);
+    // Translate everything by more than the skin (across periodic boundaries too): the
+    // contacts are the same pairs, the list must be rebuilt with new cells and image shifts.
+    for (auto& x : s.position_m) x += Vec3{7.3e-3, -5.1e-3, 11.9e-3};
+    ASSERT_TRUE(L.needs_rebuild(s));
+    L.build(s);
+    std::size_t carried = 0;
+    for (std::uint32_t i = 0; i < s.size(); ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const auto it = expected.find({i, L.j[k]});
+        if (it == expected.end()) {
+          EXPECT_EQ(L.touching[k], 0);
+          EXPECT_EQ(L.history[k].xi, Vec3{});
+          EXPECT_EQ(L.history[k].m_r, Vec3{});
+        } else {
+          ++carried;
+          EXPECT_EQ(L.touching[k], 1);
+          EXPECT_EQ(L.history[k].xi, it->second.xi);
+          EXPECT_EQ(L.history[k].m_r, it->second.m_r);
+        }
+      }
+    EXPECT_EQ(carried, expected.size());
+    // A pair pulled apart beyond the list cutoff (5 mm > r_i + r_j + skin <= 2.3 mm) leaves the
+    // list, and its history with it.
+    const auto [i0, j0] = expected.begin()->first;
+    for (std::uint32_t q = 0; q < s.size(); ++q)
+      if (s.body[q] == s.body[j0]) s.position_m[q] += Vec3{0, 0, 5e-3};
+    L.build(s);
+    for (std::uint32_t k = L.row_start[i0]; k < L.row_start[i0 + 1]; ++k) EXPECT_NE(L.j[k], j0);
+  }
+}
