@@ -155,7 +155,7 @@ std::vector<ProfilePoint> free_surface_profile_mask(const cv::Mat& mask, double 
   const int col1 = std::min(mask.cols - 1, static_cast<int>(std::ceil(cx + R)));
   const int row0 = stats.at<int>(bed, cv::CC_STAT_TOP);
   const int row1 = row0 + stats.at<int>(bed, cv::CC_STAT_HEIGHT) - 1;
-  const double gap = p.max_gap_px < 0.0 ? std::max(2.0, 0.01 * R) : p.max_gap_px;
+  const double gap = p.max_gap_px < 0.0 ? std::max(2.0, 0.05 * R) : p.max_gap_px;
   // Per column, climb from the lowest bed pixel through gaps of at most `gap` pixels; the top
   // reached is the surface (same rule as for particles).
   std::vector<int> top_row(static_cast<std::size_t>(mask.cols), -1);

@@ -79,7 +79,7 @@ SurfaceFit fit_surface_line(std::span<const ProfilePoint> profile);
 struct ImageSurfaceParams {
   int bin_px = 1;             // columns per bin
   double wall_zone_px = -1.0; // < 0: 5 % of the disc radius
-  double max_gap_px = -1.0;   // < 0: 1 % of the disc radius, at least 2 px
+  double max_gap_px = -1.0;   // < 0: 5 % of the disc radius, at least 2 px
   bool mirror_x = false;      // drum seen turning clockwise
 };
 
