@@ -163,9 +163,12 @@ void Runner::sample() {
   series_->write(sim_.time_s(), revolution(), alpha, nan, nan, sim_.kinetic_energy_j(), sim_.contact_count());
   if (trace_) {
     char buf[512];
-    for (std::size_t i = 0; i < b.size(); ++i) {
+    std::vector<std::uint32_t> by_id(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) by_id[b.id[i]] = static_cast<std::uint32_t>(i);
+    for (std::size_t id = 0; id < b.size(); ++id) {
+      const std::size_t i = by_id[id];
       const Vec3 &x = b.position_m[i], &v = b.velocity_m_s[i], &w = b.angular_velocity_rad_s[i];
-      std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", sim_.time_s(), i, x.x,
+      std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", sim_.time_s(), id, x.x,
                     x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z);
       *trace_ << buf;
     }
@@ -183,7 +186,7 @@ void Runner::snapshot() {
   std::vector<std::int64_t> body(s.size()), material(s.size());
   for (std::size_t i = 0; i < s.size(); ++i) {
     speed[i] = norm(s.velocity_m_s[i]);
-    body[i] = s.body[i];
+    body[i] = b.id[s.body[i]];
     material[i] = s.material[i];
   }
   c.vectors = {{"velocity", s.velocity_m_s}, {"angular_velocity", s.angular_velocity_rad_s}, {"force", s.force_n}};
@@ -200,7 +203,7 @@ void Runner::snapshot() {
   std::vector<std::array<double, 4>> q(b.size());
   for (std::size_t i = 0; i < b.size(); ++i) {
     bspeed[i] = norm(b.velocity_m_s[i]);
-    id[i] = static_cast<std::int64_t>(i);
+    id[i] = b.id[i];
     shape[i] = b.shape[i];
     q[i] = {b.orientation[i].w, b.orientation[i].x, b.orientation[i].y, b.orientation[i].z};
   }

@@ -193,6 +193,47 @@ void VerletList::build(const state::SphereStore& s) {
   ++builds_;
 }
 
+void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
+  const std::size_t n = new_of_old.size();
+  if (row_start.size() != n + 1) return;
+  struct E {
+    std::uint32_t i, j;
+    std::int32_t image;
+    contact::ContactHistory h;
+  };
+  std::vector<E> kept;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) {
+      if (!touching[k]) continue;
+      E e{new_of_old[i], new_of_old[j[k]], image[k], history[k]};
+      if (e.i > e.j) {
+        std::swap(e.i, e.j);
+        e.h.xi = -e.h.xi;
+        e.h.m_r = -e.h.m_r;
+        // The image shift is also from i's side: negate each packed component.
+        const auto c = [&](int sh) { return -static_cast<int>(static_cast<std::int8_t>((image[k] >> sh) & 0xff)); };
+        e.image = static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(c(0)))) |
+                  (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(c(8)))) << 8) |
+                  (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(c(16)))) << 16);
+      }
+      kept.push_back(e);
+    }
+  std::sort(kept.begin(), kept.end(), [](const E& a, const E& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+  std::fill(row_start.begin(), row_start.end(), 0u);
+  for (const auto& e : kept) ++row_start[e.i + 1];
+  std::partial_sum(row_start.begin(), row_start.end(), row_start.begin());
+  j.resize(kept.size());
+  image.resize(kept.size());
+  history.resize(kept.size());
+  touching.assign(kept.size(), 1);
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    j[k] = kept[k].j;
+    image[k] = kept[k].image;
+    history[k] = kept[k].h;
+  }
+  built_at_.clear();  // forces a rebuild
+}
+
 bool VerletList::needs_rebuild(const state::SphereStore& s) const {
   if (built_at_.size() != s.size()) return true;
   const double limit2 = 0.25 * skin_m_ * skin_m_;

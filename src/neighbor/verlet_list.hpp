@@ -35,6 +35,10 @@ class VerletList {
   }
   /// Rebuilds the list from current sphere positions, carrying history over.
   void build(const state::SphereStore& spheres);
+  /// Re-indexes the existing list after spheres were renumbered (new index = new_of_old[old]),
+  /// keeping the history of touching pairs; the next build() merges it as usual. A pair whose
+  /// order flips (new i > new j) has its history negated: history is stored from i's side.
+  void renumber(const std::vector<std::uint32_t>& new_of_old);
   /// True when some sphere moved more than half the skin since the last build.
   bool needs_rebuild(const state::SphereStore& spheres) const;
 

@@ -58,6 +58,7 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
   bodies_.mass_kg.push_back(mass);
   bodies_.inertia_kg_m2.push_back(inertia);
   bodies_.shape.push_back(in.shape);
+  bodies_.id.push_back(b);
   bodies_.first_sphere.push_back(static_cast<std::uint32_t>(spheres_.size()));
   bodies_.sphere_count.push_back(static_cast<std::uint32_t>(t.sphere_count()));
   bodies_.force_n.push_back({});
@@ -105,6 +106,84 @@ void Simulation::update_spheres_from_bodies() {
   }
 }
 
+void Simulation::reorder_spatially() {
+  const std::size_t nb = bodies_.size(), ns = spheres_.size(), nw = walls_.size();
+  if (nb < 2) return;
+  double r_max = 0.0;
+  for (double r : spheres_.radius_m) r_max = std::max(r_max, r);
+  Vec3 lo{1e300, 1e300, 1e300};
+  for (const auto& x : bodies_.position_m)
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], x[k]);
+  const double cell = 2.0 * r_max + skin_m_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> key(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    std::uint64_t c[3];
+    for (int k = 0; k < 3; ++k)
+      c[k] = static_cast<std::uint64_t>(std::min(2.0e6, std::floor((bodies_.position_m[b][k] - lo[k]) / cell)));
+    key[b] = {(c[2] << 42) | (c[1] << 21) | c[0], static_cast<std::uint32_t>(b)};
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<std::uint32_t> new_of_old_body(nb), new_of_old_sphere(ns);
+  for (std::size_t q = 0; q < nb; ++q) new_of_old_body[key[q].second] = static_cast<std::uint32_t>(q);
+
+  state::BodyStore nbs;
+  state::SphereStore nss;
+  auto perm_b = [&](auto& dst, const auto& src) {
+    dst.resize(nb);
+    for (std::size_t q = 0; q < nb; ++q) dst[q] = src[key[q].second];
+  };
+  perm_b(nbs.position_m, bodies_.position_m);
+  perm_b(nbs.velocity_m_s, bodies_.velocity_m_s);
+  perm_b(nbs.angular_velocity_rad_s, bodies_.angular_velocity_rad_s);
+  perm_b(nbs.angular_momentum_kg_m2_s, bodies_.angular_momentum_kg_m2_s);
+  perm_b(nbs.orientation, bodies_.orientation);
+  perm_b(nbs.mass_kg, bodies_.mass_kg);
+  perm_b(nbs.inertia_kg_m2, bodies_.inertia_kg_m2);
+  perm_b(nbs.shape, bodies_.shape);
+  perm_b(nbs.id, bodies_.id);
+  perm_b(nbs.sphere_count, bodies_.sphere_count);
+  perm_b(nbs.force_n, bodies_.force_n);
+  perm_b(nbs.torque_n_m, bodies_.torque_n_m);
+  nbs.first_sphere.resize(nb);
+  std::vector<std::uint32_t> old_sphere_of_new;
+  old_sphere_of_new.reserve(ns);
+  for (std::size_t q = 0; q < nb; ++q) {
+    nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+    const std::uint32_t s0 = bodies_.first_sphere[key[q].second];
+    for (std::uint32_t s = s0; s < s0 + nbs.sphere_count[q]; ++s) {
+      new_of_old_sphere[s] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+      old_sphere_of_new.push_back(s);
+    }
+  }
+  auto perm_s = [&](auto& dst, const auto& src) {
+    dst.resize(ns);
+    for (std::size_t q = 0; q < ns; ++q) dst[q] = src[old_sphere_of_new[q]];
+  };
+  perm_s(nss.position_m, spheres_.position_m);
+  perm_s(nss.velocity_m_s, spheres_.velocity_m_s);
+  perm_s(nss.angular_velocity_rad_s, spheres_.angular_velocity_rad_s);
+  perm_s(nss.radius_m, spheres_.radius_m);
+  perm_s(nss.offset_body_m, spheres_.offset_body_m);
+  perm_s(nss.material, spheres_.material);
+  perm_s(nss.body_mass_kg, spheres_.body_mass_kg);
+  perm_s(nss.force_n, spheres_.force_n);
+  perm_s(nss.torque_n_m, spheres_.torque_n_m);
+  nss.body.resize(ns);
+  for (std::size_t q = 0; q < ns; ++q) nss.body[q] = new_of_old_body[spheres_.body[old_sphere_of_new[q]]];
+  std::vector<contact::ContactHistory> wh(ns * nw);
+  std::vector<std::uint8_t> wt(ns * nw);
+  for (std::size_t q = 0; q < ns; ++q)
+    for (std::size_t w = 0; w < nw; ++w) {
+      wh[q * nw + w] = wall_history_[old_sphere_of_new[q] * nw + w];
+      wt[q * nw + w] = wall_touching_[old_sphere_of_new[q] * nw + w];
+    }
+  bodies_ = std::move(nbs);
+  spheres_ = std::move(nss);
+  wall_history_.swap(wh);
+  wall_touching_.swap(wt);
+  list_.renumber(new_of_old_sphere);
+}
+
 void Simulation::refresh() {
   if (skin_m_ < 0.0) {
     double rmin = 1e300;
@@ -139,7 +218,10 @@ void Simulation::step() {
     }
   }
   update_spheres_from_bodies();
-  if (list_.needs_rebuild(spheres_)) list_.build(spheres_);
+  if (list_.needs_rebuild(spheres_)) {
+    if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
+    list_.build(spheres_);
+  }
   compute_forces();
   reduce_to_bodies();
 #pragma omp parallel for schedule(static)

@@ -53,6 +53,8 @@ class Simulation {
   std::uint32_t add_body(const BodyInit& b);
   void set_domain(const neighbor::Domain& d) { domain_ = d; }
   void set_skin(double skin_m) { skin_m_ = skin_m; }
+  /// Spatial re-sorting period in neighbour-list builds (0: never).
+  void set_sort_every_builds(std::size_t n) { sort_every_builds_ = n; }
   /// Drum walls turn at this angular velocity (rad/s, about the drum axis) while rotation is on.
   void set_drum_angular_velocity(double omega_rad_s) { drum_omega_ = omega_rad_s; apply_drum_rotation(); }
   void set_drum_rotation(bool on) { drum_rotating_ = on; apply_drum_rotation(); }
@@ -100,6 +102,9 @@ class Simulation {
   void compute_forces_impl();
   void reduce_to_bodies();
   void apply_drum_rotation();
+  /// Renumbers bodies (and their spheres) in cell order so that neighbours are close in memory;
+  /// remaps the contact history. Stable ids are kept in BodyStore::id.
+  void reorder_spatially();
 
   std::vector<shapes::ClumpTemplate> templates_;
   std::vector<double> density_;
@@ -122,6 +127,7 @@ class Simulation {
   std::uint64_t steps_ = 0;
   std::size_t contacts_ = 0;
   bool cohesion_ = false, rolling_ = false;
+  std::size_t sort_every_builds_ = 16;
 };
 
 }  // namespace biodem::sim

@@ -37,6 +37,7 @@ struct BodyStore {
   std::vector<double> mass_kg;
   std::vector<Vec3> inertia_kg_m2;      // principal moments (body frame)
   std::vector<std::uint32_t> shape;     // template index
+  std::vector<std::uint32_t> id;        // stable id (insertion order); storage order changes with spatial sorting
   std::vector<std::uint32_t> first_sphere;
   std::vector<std::uint32_t> sphere_count;
   std::vector<Vec3> force_n;            // total force incl. gravity
