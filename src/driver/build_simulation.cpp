@@ -1,7 +1,5 @@
 #include "driver/build_simulation.hpp"
 
-#include <cstdlib>
-
 #include "contact/time_step.hpp"
 #include "contact/viscous_damping.hpp"
 #include "core/error.hpp"
