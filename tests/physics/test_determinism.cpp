@@ -1,0 +1,113 @@
+// Determinism across thread counts (SPEC 10: checkpoints resume bit for bit on the same build
+// and thread count; the engine promises more: bit-identical for any thread count, see
+// sim/simulation.hpp). The same random packing of spheres and needle clumps, with friction,
+// rolling friction, cohesion, a turning cylinder and a periodic axis (every slot of the contact
+// model and every branch of the neighbour list), is run with 1 and with 2 OpenMP threads.
+// Tolerance: none, the states must be bit-identical.
+#include <gtest/gtest.h>
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "physics_support.hpp"
+
+using namespace biodem;
+using namespace biodem::phys;
+
+namespace {
+
+constexpr double kRc = 20e-3, kLz = 12e-3, kSpacing = 3e-3;
+
+double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+
+struct Snapshot {
+  std::vector<Vec3> x, v, w;
+  std::vector<Quat> q;
+  std::size_t contacts = 0, builds = 0;
+};
+
+Snapshot run(int threads, std::uint64_t steps) {
+  const ScopedThreads scoped(threads);
+  EXPECT_EQ(omp_get_max_threads(), threads);
+  config::Shape needle;
+  needle.name = "needle";
+  needle.kind = config::ShapeKind::Needle;
+  needle.d50_m = 1.0e-3;
+  needle.aspect_ratio = 0.4;
+  needle.overlap_factor = 0.2;
+  SimSetup su;
+  su.particle = {5e6, 0.3, 1000.0};
+  su.wall = {5e6, 0.3, 0.0};
+  su.particle_particle = {0.5, 0.5, 0.3, 5e4};
+  su.particle_wall = {0.5, 0.4, 0.5, 2.5e4};
+  su.templates = {sphere_template(0.6e-3), sphere_template(0.45e-3), shapes::make_template(needle, 1.0)};
+  su.dt_s = 1e-5;
+  su.gravity_m_s2 = {0, -9.81, 0};
+  sim::Simulation s = make_simulation(su);
+  s.add_wall(cylinder_wall({0, 0, 0}, {0, 0, 1}, kRc, 3.0));
+  neighbor::Domain d;
+  d.periodic = {false, false, true};
+  d.lo_m = {0, 0, 0};
+  d.hi_m = {0, 0, kLz};
+  s.set_domain(d);
+
+  std::mt19937_64 gen(2024);
+  const int n = static_cast<int>(kRc / kSpacing);
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      for (int l = 0; l < static_cast<int>(kLz / kSpacing); ++l) {
+        const Vec3 x{i * kSpacing, j * kSpacing, (l + 0.5) * kSpacing};
+        if (std::hypot(x.x, x.y) > kRc - 2.5e-3) continue;
+        const auto shape = static_cast<std::uint32_t>(gen() % 3);
+        Quat q{uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5};
+        q = normalized(q);
+        const Vec3 v{uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5};
+        const Vec3 w{200 * (uniform(gen) - 0.5), 200 * (uniform(gen) - 0.5), 200 * (uniform(gen) - 0.5)};
+        add_particle(s, shape, x, 2.0 * v, w, q);
+      }
+  Snapshot out;
+  for (std::uint64_t k = 0; k < steps; ++k) {
+    s.step();
+    out.contacts += s.contact_count();
+  }
+  out.x = s.bodies().position_m;
+  out.v = s.bodies().velocity_m_s;
+  out.w = s.bodies().angular_velocity_rad_s;
+  out.q = s.bodies().orientation;
+  out.builds = s.neighbor_list().builds();
+  return out;
+}
+
+template <class T>
+bool bitwise_equal(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+}  // namespace
+
+TEST(Determinism, OneAndTwoThreadsGiveBitIdenticalStates) {
+  const std::uint64_t steps = 300;
+  const auto t0 = std::chrono::steady_clock::now();
+  const Snapshot a = run(1, steps);
+  const auto t1 = std::chrono::steady_clock::now();
+  const Snapshot b = run(2, steps);
+  const auto t2 = std::chrono::steady_clock::now();
+  std::printf("[timing] 1 thread %.3f s, 2 threads %.3f s\n", std::chrono::duration<double>(t1 - t0).count(),
+              std::chrono::duration<double>(t2 - t1).count());
+  std::printf("[measured] determinism: %zu bodies, %llu steps, %zu contact-steps, %zu list builds\n", a.x.size(),
+              static_cast<unsigned long long>(steps), a.contacts, a.builds);
+  ASSERT_GT(a.x.size(), 300u);
+  EXPECT_GT(a.contacts, 1000u) << "the packing must collide for the test to mean anything";
+  EXPECT_GT(a.builds, 1u) << "the neighbour list must be rebuilt at least once";
+  EXPECT_EQ(a.contacts, b.contacts);
+  EXPECT_EQ(a.builds, b.builds);
+  EXPECT_TRUE(bitwise_equal(a.x, b.x)) << "positions differ";
+  EXPECT_TRUE(bitwise_equal(a.v, b.v)) << "velocities differ";
+  EXPECT_TRUE(bitwise_equal(a.w, b.w)) << "angular velocities differ";
+  EXPECT_TRUE(bitwise_equal(a.q, b.q)) << "orientations differ";
+}
