@@ -252,3 +252,57 @@ TEST(VerletList, HistoryOfPairsThatStayInContactSurvivesRebuild) {
     for (std::uint32_t k = L.row_start[i0]; k < L.row_start[i0 + 1]; ++k) EXPECT_NE(L.j[k], j0);
   }
 }
+
+// The engine renumbers spheres when it sorts bodies spatially (VerletList::renumber): the
+// history of every touching pair follows it to its new indices, negated when the pair's order
+// flips (history is stored from the lower index's side), and the rebuilt list is again exact.
+TEST(VerletList, RenumberKeepsHistoryUnderNewIndices) {
+  for (const Variant& v : kVariants) {
+    SCOPED_TRACE(v.name);
+    const Domain dom = make_domain(v.periodic);
+    const state::SphereStore s = make_packing(11, v.clumps ? 250 : 600, dom, v.clumps);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    std::map<std::pair<std::uint32_t, std::uint32_t>, contact::ContactHistory> old_hist;
+    for (std::uint32_t i = 0; i < s.size(); ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const std::uint32_t j = L.j[k];
+        const Vec3 d = s.position_m[i] - s.position_m[j] - L.shift(k);
+        L.touching[k] = norm(d) < s.radius_m[i] + s.radius_m[j] ? 1 : 0;
+        L.history[k] = {{1e-9 * i, 2e-9 * j, 0.5}, {double(i), -double(j), 2.0}};
+        if (L.touching[k]) old_hist[{i, j}] = L.history[k];
+      }
+    // A random permutation of the spheres.
+    std::vector<std::uint32_t> new_of_old(s.size());
+    for (std::uint32_t i = 0; i < s.size(); ++i) new_of_old[i] = i;
+    std::shuffle(new_of_old.begin(), new_of_old.end(), std::mt19937_64(99));
+    state::SphereStore p = s;
+    for (std::uint32_t i = 0; i < s.size(); ++i) {
+      p.position_m[new_of_old[i]] = s.position_m[i];
+      p.radius_m[new_of_old[i]] = s.radius_m[i];
+      p.body[new_of_old[i]] = s.body[i];
+    }
+    L.renumber(new_of_old);
+    EXPECT_TRUE(L.needs_rebuild(p));
+    L.build(p);
+    check_list(L, p, dom);
+    std::size_t flipped = 0;
+    for (const auto& [pair, h] : old_hist) {
+      std::uint32_t a = new_of_old[pair.first], b = new_of_old[pair.second];
+      const bool flip = a > b;
+      if (flip) std::swap(a, b), ++flipped;
+      bool found = false;
+      for (std::uint32_t k = L.row_start[a]; k < L.row_start[a + 1]; ++k)
+        if (L.j[k] == b) {
+          found = true;
+          EXPECT_EQ(L.touching[k], 1);
+          EXPECT_EQ(L.history[k].xi, flip ? -h.xi : h.xi);
+          EXPECT_EQ(L.history[k].m_r, flip ? -h.m_r : h.m_r);
+        }
+      EXPECT_TRUE(found) << pair.first << "-" << pair.second;
+    }
+    EXPECT_GT(flipped, 10u);
+    EXPECT_LT(flipped, old_hist.size());
+  }
+}
