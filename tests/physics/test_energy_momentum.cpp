@@ -76,18 +76,21 @@ sim::Simulation make_gas(bool walls, bool periodic) {
   return s;
 }
 
-/// Touching pairs and wall contacts after the last step, as keys.
+/// Touching pairs and wall contacts after the last step, as keys made of stable body ids (the
+/// engine renumbers bodies when it sorts them spatially; one sphere per body here).
 std::unordered_set<std::uint64_t> touching_keys(sim::Simulation& s) {
   std::unordered_set<std::uint64_t> keys;
   const auto& L = s.neighbor_list();
-  const std::uint64_t n = s.spheres().size();
+  const std::uint64_t n = s.spheres().size(), nw = s.walls().size();
+  const auto id = [&](std::uint64_t sphere) -> std::uint64_t { return s.bodies().id[s.spheres().body[sphere]]; };
   for (std::uint64_t i = 0; i < n; ++i)
     for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k)
-      if (L.touching[k]) keys.insert(i * n + L.j[k]);
-  const std::uint64_t nw = s.walls().size();
+      if (L.touching[k]) {
+        const std::uint64_t a = id(i), b = id(L.j[k]);
+        keys.insert(std::min(a, b) * n + std::max(a, b));
+      }
   for (std::uint64_t q = 0; q < s.wall_touching().size(); ++q)
-    if (s.wall_touching()[q]) keys.insert(n * n + q);
-  (void)nw;
+    if (s.wall_touching()[q]) keys.insert(n * n + id(q / nw) * nw + q % nw);
   return keys;
 }
 
