@@ -12,7 +12,13 @@
 #include <random>
 #include <sstream>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "analysis/centroid_angle.hpp"
+#include "analysis/free_surface.hpp"
+#include "analysis/render_frame.hpp"
+#include "io/checkpoint.hpp"
+#include "io/series_csv.hpp"
 #include "core/error.hpp"
 #include "driver/build_simulation.hpp"
 #include "io/case_report.hpp"
@@ -65,37 +71,6 @@ std::vector<PhasePlan> plan_phases(const config::CaseConfig& c) {
   return out;
 }
 
-/// Series and trace rows; the CSV format is SPEC 11's.
-class SeriesOut {
- public:
-  explicit SeriesOut(const std::string& path) : out_(path, std::ios::trunc) {
-    if (!out_) throw Error(path + ": cannot open for writing");
-    out_ << "time_s,revolution,alpha_deg,surface_r2,surface_angle_deg,kinetic_energy_j,contacts\n";
-  }
-  void write(double t, double rev, double alpha, double r2, double ang, double ke, std::size_t contacts) {
-    char buf[256];
-    auto num = [](double v, char* b, std::size_t n) {
-      if (std::isfinite(v)) std::snprintf(b, n, "%.10g", v);
-      else b[0] = '\0';
-    };
-    char a[32], b[32], c[32], d[32], e[32], f[32];
-    num(t, a, sizeof a);
-    num(rev, b, sizeof b);
-    num(alpha, c, sizeof c);
-    num(r2, d, sizeof d);
-    num(ang, e, sizeof e);
-    num(ke, f, sizeof f);
-    std::snprintf(buf, sizeof buf, "%s,%s,%s,%s,%s,%s,%zu\n", a, b, c, d, e, f, contacts);
-    out_ << buf;
-    if (++rows_ % 50 == 0) out_.flush();
-  }
-  void flush() { out_.flush(); }
-
- private:
-  std::ofstream out_;
-  std::size_t rows_ = 0;
-};
-
 class Runner {
  public:
   Runner(const io::LoadedCase& loaded, const RunOptions& opt)
@@ -107,7 +82,10 @@ class Runner {
  private:
   void write_log_header();
   void insert_all();
-  void run_phase(const PhasePlan& p, std::size_t index);
+  void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
+  void frame();
+  void checkpoint();
+  void resume();
   void after_step();
   void sample();
   void snapshot();
@@ -120,11 +98,19 @@ class Runner {
   BuiltCase built_;
   sim::Simulation& sim_;
   io::Progress progress_;
-  std::unique_ptr<SeriesOut> series_;
+  std::unique_ptr<io::SeriesWriter> series_;
   std::unique_ptr<std::ofstream> trace_;
   std::unique_ptr<io::PvdCollection> pvd_, pvd_bodies_;
   std::ofstream log_;
-  std::uint64_t sample_every_ = 1, snapshot_every_ = 0;
+  std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
+  std::size_t frame_index_ = 0;
+  analysis::SurfaceParams surface_params_{};
+  std::uint64_t case_hash_ = 0;
+  // Where the run is, for checkpoints.
+  std::size_t phase_index_ = 0;
+  std::uint64_t phase_step_ = 0, settle_counter_ = 0;
+  io::RunProgress resumed_;
+  bool resumed_run_ = false;
   std::uint64_t total_steps_estimate_ = 1;
   double rotation_time_s_ = 0.0;
   std::size_t snapshot_index_ = 0;
@@ -158,9 +144,26 @@ void Runner::sample() {
     xc += b.mass_kg[i] * b.position_m[i].x;
     yc += b.mass_kg[i] * b.position_m[i].y;
   }
-  const double alpha = m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m) : std::nan("");
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  series_->write(sim_.time_s(), revolution(), alpha, nan, nan, sim_.kinetic_energy_j(), sim_.contact_count());
+  io::SeriesRow row;
+  row.time_s = sim_.time_s();
+  row.revolution = revolution();
+  row.alpha_deg = m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m) : std::numeric_limits<double>::quiet_NaN();
+  if (built_.drum && sim_.spheres().size() > 0) {
+    const auto& s = sim_.spheres();
+    std::vector<double> x(s.size()), y(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      x[i] = s.position_m[i].x;
+      y[i] = s.position_m[i].y;
+    }
+    const auto fit = analysis::fit_free_surface(x, y, s.radius_m, built_.drum->radius_m(), surface_params_);
+    if (fit.valid) {
+      row.surface_r2 = fit.r2;
+      row.surface_angle_deg = fit.angle_deg;
+    }
+  }
+  row.kinetic_energy_j = sim_.kinetic_energy_j();
+  row.contacts = static_cast<std::int64_t>(sim_.contact_count());
+  series_->write(row);
   if (trace_) {
     char buf[512];
     std::vector<std::uint32_t> by_id(b.size());
@@ -221,7 +224,56 @@ void Runner::after_step() {
   const std::uint64_t n = sim_.step_count();
   if (n % sample_every_ == 0) sample();
   if (snapshot_every_ && n % snapshot_every_ == 0) snapshot();
+  if (frame_every_ && n % frame_every_ == 0) frame();
+  if (checkpoint_every_ && n % checkpoint_every_ == 0 && current_phase_ != "insert") checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
+}
+
+void Runner::frame() {
+  if (!built_.drum) return;
+  const auto& s = sim_.spheres();
+  std::vector<double> x(s.size()), y(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    x[i] = s.position_m[i].x;
+    y[i] = s.position_m[i].y;
+  }
+  const cv::Mat img = analysis::render_backlit_frame(x, y, s.radius_m, built_.drum->radius_m(),
+                                                     static_cast<int>(cfg_.output.frame_size_px));
+  char name[64];
+  std::snprintf(name, sizeof name, "%06zu.png", frame_index_++);
+  const std::string path = opt_.out_dir + "/frames/" + name;
+  if (!cv::imwrite(path, img)) throw Error(path + ": cannot write frame");
+}
+
+void Runner::checkpoint() {
+  series_->flush();
+  if (trace_) trace_->flush();
+  io::RunProgress rp;
+  rp.case_hash = case_hash_;
+  rp.phase_index = phase_index_;
+  rp.phase_step = phase_step_;
+  rp.settle_counter = settle_counter_;
+  rp.rotation_time_s = rotation_time_s_;
+  rp.snapshot_index = snapshot_index_;
+  rp.series_bytes = fs::file_size(opt_.out_dir + "/series.csv");
+  rp.trace_bytes = trace_ ? fs::file_size(opt_.out_dir + "/trace.csv") : 0;
+  rp.pvd_spheres = pvd_->entries();
+  rp.pvd_bodies = pvd_bodies_->entries();
+  // frame index is implied by the step count
+  io::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
+}
+
+void Runner::resume() {
+  const std::string path = opt_.out_dir + "/checkpoint.bin";
+  resumed_ = io::load_checkpoint(path, sim_);
+  if (resumed_.case_hash != case_hash_)
+    throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
+  rotation_time_s_ = resumed_.rotation_time_s;
+  snapshot_index_ = resumed_.snapshot_index;
+  frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
+  fs::resize_file(opt_.out_dir + "/series.csv", resumed_.series_bytes);
+  if (cfg_.output.trace) fs::resize_file(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
+  resumed_run_ = true;
 }
 
 void Runner::insert_all() {
@@ -265,25 +317,28 @@ void Runner::insert_all() {
   sim_.refresh();
 }
 
-void Runner::run_phase(const PhasePlan& p, std::size_t index) {
+void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below) {
   current_phase_ = p.name;
+  phase_index_ = index;
   sim_.set_drum_rotation(p.rotate);
-  log_ << "phase " << index + 1 << " '" << p.name << "' starts at t = " << sim_.time_s() << " s (step "
-       << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
-  std::uint64_t below = 0, k = 0;
+  log_ << "phase " << index + 1 << " '" << p.name << "' " << (start_step ? "resumes" : "starts") << " at t = "
+       << sim_.time_s() << " s (step " << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
+  std::uint64_t k = start_step;
   const auto t0 = std::chrono::steady_clock::now();
-  for (; k < p.max_steps; ++k) {
+  bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
+  while (!settled && k < p.max_steps) {
     sim_.step();
-    after_step();
+    ++k;
     if (p.criterion) {
       const double mean_ke = sim_.bodies().size() ? sim_.kinetic_energy_j() / sim_.bodies().size() : 0.0;
       below = mean_ke < p.ke_threshold_j ? below + 1 : 0;
-      if (k + 1 >= p.min_steps && below >= p.hold_steps) {
-        ++k;
-        break;
-      }
+      settled = k >= p.min_steps && below >= p.hold_steps;
     }
+    phase_step_ = k;
+    settle_counter_ = below;
+    after_step();
   }
+  k -= start_step;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double rate = wall > 0.0 ? static_cast<double>(sim_.spheres().size()) * static_cast<double>(k) / wall : 0.0;
   log_ << "phase '" << p.name << "' ends at t = " << sim_.time_s() << " s after " << k << " steps";
@@ -297,37 +352,82 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index) {
 }
 
 RunSummary Runner::run() {
-  if (opt_.resume)
-    throw Error("--resume: checkpoint/restart is not implemented yet in this version");
-  io::prepare_output_dir(opt_.out_dir);
+  if (opt_.resume) {
+    if (!fs::exists(opt_.out_dir + "/checkpoint.bin"))
+      throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin does not exist (nothing to resume)");
+  } else {
+    io::prepare_output_dir(opt_.out_dir);
+  }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
-  log_.open(opt_.out_dir + "/run.log", std::ios::trunc);
+  if (cfg_.output.frame_every_s) fs::create_directories(opt_.out_dir + "/frames");
+  {
+    std::ifstream in(cfg_.source_path, std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    case_hash_ = io::fnv1a(text.data(), text.size());
+  }
   const double dt = cfg_.run.dt_s;
   sample_every_ = std::max<std::uint64_t>(1, steps_for(1.0 / cfg_.output.sample_hz, dt));
   if (cfg_.output.snapshot_every_s) snapshot_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.snapshot_every_s, dt));
-  write_log_header();
-
-  series_ = std::make_unique<SeriesOut>(opt_.out_dir + "/series.csv");
-  if (cfg_.output.trace) {
-    trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::trunc);
-    *trace_ << "time_s,body_id,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,wx_rad_s,wy_rad_s,wz_rad_s\n";
+  if (cfg_.output.frame_every_s) frame_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.frame_every_s, dt));
+  if (cfg_.output.checkpoint_every_s)
+    checkpoint_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.checkpoint_every_s, dt));
+  {
+    // Free-surface profile parameters scale with the particle size: the volume-equivalent
+    // diameter of the (first) inserted shape, or of the largest sphere for explicit scenes.
+    double d = 0.0;
+    if (!built_.populations.empty()) d = sim_.templates()[built_.populations[0].shape].equivalent_diameter_m();
+    for (const auto& t : sim_.templates()) d = d > 0.0 ? d : 2.0 * t.max_radius_m;
+    surface_params_ = analysis::SurfaceParams::for_particle_diameter(d > 0.0 ? d : 1e-3);
   }
-  pvd_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
-  pvd_bodies_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/bodies.pvd");
 
   const auto phases = plan_phases(cfg_);
   total_steps_estimate_ = 1;
   for (const auto& p : phases) total_steps_estimate_ += p.max_steps;
 
   const auto t0 = std::chrono::steady_clock::now();
-  insert_all();
-  sim_.refresh();
-  log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
-  total_steps_estimate_ += sim_.step_count();
-  sample();
-  snapshot();
-  for (std::size_t i = 0; i < phases.size(); ++i) run_phase(phases[i], i);
+  std::size_t first_phase = 0;
+  std::uint64_t first_step = 0, first_below = 0;
+  if (opt_.resume) {
+    resume();
+    log_.open(opt_.out_dir + "/run.log", std::ios::app);
+    log_ << "\nresumed from checkpoint.bin at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")\n";
+    series_ = std::make_unique<io::SeriesWriter>(opt_.out_dir + "/series.csv", true);
+    if (cfg_.output.trace) trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::app);
+    pvd_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
+    pvd_bodies_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/bodies.pvd");
+    pvd_->set_entries(resumed_.pvd_spheres);
+    pvd_bodies_->set_entries(resumed_.pvd_bodies);
+    first_phase = resumed_.phase_index;
+    first_step = resumed_.phase_step;
+    first_below = resumed_.settle_counter;
+    phase_index_ = first_phase;
+    phase_step_ = first_step;
+    settle_counter_ = first_below;
+    total_steps_estimate_ += sim_.step_count();
+  } else {
+    log_.open(opt_.out_dir + "/run.log", std::ios::trunc);
+    write_log_header();
+    series_ = std::make_unique<io::SeriesWriter>(opt_.out_dir + "/series.csv", false);
+    if (cfg_.output.trace) {
+      trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::trunc);
+      *trace_ << "time_s,body_id,x_m,y_m,z_m,vx_m_s,vy_m_s,vz_m_s,wx_rad_s,wy_rad_s,wz_rad_s\n";
+    }
+    pvd_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
+    pvd_bodies_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/bodies.pvd");
+    insert_all();
+    sim_.refresh();
+    log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
+    total_steps_estimate_ += sim_.step_count();
+    sample();
+    snapshot();
+  }
+  const std::uint64_t steps_at_start = sim_.step_count();
+  for (std::size_t i = first_phase; i < phases.size(); ++i) {
+    run_phase(phases[i], i, i == first_phase ? first_step : 0, i == first_phase ? first_below : 0);
+    phase_step_ = 0;
+    settle_counter_ = 0;
+  }
   if (sim_.step_count() % sample_every_ != 0) sample();  // the series always ends at the final state
   if (!snapshot_every_ || sim_.step_count() % snapshot_every_ != 0) snapshot();
   series_->flush();
@@ -340,7 +440,8 @@ RunSummary Runner::run() {
   r.wall_s = wall;
   r.bodies = sim_.bodies().size();
   r.spheres = sim_.spheres().size();
-  const double rate = wall > 0 ? static_cast<double>(r.spheres) * static_cast<double>(r.steps) / wall : 0.0;
+  const double done = static_cast<double>(r.steps - steps_at_start);
+  const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
        << rate << " sphere-steps/s (" << rate / omp_get_max_threads() << " per thread), neighbour builds "
        << sim_.neighbor_list().builds() << "\n";

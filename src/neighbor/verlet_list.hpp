@@ -43,6 +43,12 @@ class VerletList {
   bool needs_rebuild(const state::SphereStore& spheres) const;
 
   std::size_t entries() const { return j.size(); }
+  // Checkpoint access to the private bookkeeping (positions at the last build, build count).
+  const std::vector<Vec3>& built_at() const { return built_at_; }
+  void restore_bookkeeping(std::vector<Vec3> built_at, std::size_t builds) {
+    built_at_ = std::move(built_at);
+    builds_ = builds;
+  }
   std::size_t builds() const { return builds_; }
   double skin_m() const { return skin_m_; }
   const Domain& domain() const { return domain_; }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "integrate/rigid_rotation.hpp"
 
 namespace biodem::sim {
@@ -86,7 +87,7 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
 
 void Simulation::update_spheres_from_bodies() {
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
     const Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b];
@@ -199,11 +200,24 @@ void Simulation::refresh() {
   forces_valid_ = true;
 }
 
+void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bool rotating, double skin_m,
+                                          std::vector<Vec3> list_built_at, std::size_t list_builds) {
+  time_s_ = time_s;
+  steps_ = steps;
+  drum_rotating_ = rotating;
+  apply_drum_rotation();
+  skin_m_ = skin_m;
+  list_.configure(domain_, skin_m_);
+  list_.restore_bookkeeping(std::move(list_built_at), list_builds);
+  list_valid_ = true;
+  forces_valid_ = true;
+}
+
 void Simulation::step() {
   if (!forces_valid_ || !list_valid_) refresh();
   const double h = 0.5 * dt_s_, dt = dt_s_;
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const double inv_m = 1.0 / bodies_.mass_kg[b];
     bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
@@ -224,7 +238,7 @@ void Simulation::step() {
   }
   compute_forces();
   reduce_to_bodies();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
     const Vec3 inertia = bodies_.inertia_kg_m2[b];
@@ -262,7 +276,7 @@ void Simulation::compute_forces_impl() {
   std::size_t pair_contacts = 0, wall_contacts = 0;
 
   // Pair entries: each entry is written by the thread that owns its row.
-#pragma omp parallel for schedule(dynamic, 128) reduction(+ : pair_contacts)
+#pragma omp parallel for schedule(dynamic, 128) reduction(+ : pair_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3 xi = s.position_m[i];
     const double ri = s.radius_m[i];
@@ -299,7 +313,7 @@ void Simulation::compute_forces_impl() {
 
   // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
   const std::size_t nw = walls_.size();
-#pragma omp parallel for schedule(static) reduction(+ : wall_contacts)
+#pragma omp parallel for schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     Vec3 f, t;
     for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
@@ -344,7 +358,7 @@ void Simulation::compute_forces_impl() {
 
 void Simulation::reduce_to_bodies() {
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
     Vec3 f = bodies_.mass_kg[b] * gravity_, t;
@@ -358,9 +372,10 @@ void Simulation::reduce_to_bodies() {
 }
 
 double Simulation::kinetic_energy_j() const {
+  // Serial on purpose: an OpenMP reduction combines partial sums in thread-arrival order, and
+  // this value decides when a settle phase ends, which must be reproducible.
   double e = 0.0;
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for reduction(+ : e) schedule(static)
   for (std::size_t b = 0; b < nb; ++b) {
     const Vec3 wb = rotate_inverse(bodies_.orientation[b], bodies_.angular_velocity_rad_s[b]);
     const Vec3 in = bodies_.inertia_kg_m2[b];

@@ -92,8 +92,12 @@ class Simulation {
   Vec3 center_of_mass_m() const;
   double total_mass_kg() const;
 
-  /// Recomputes sphere positions from bodies and forces from scratch (after set-up or restart).
+  /// Recomputes sphere positions from bodies and forces from scratch (after set-up).
   void refresh();
+  /// After the stores, histories and neighbour list were loaded from a checkpoint: restores the
+  /// clock and bookkeeping without recomputing anything, so the run continues bit for bit.
+  void restore_after_checkpoint(double time_s, std::uint64_t steps, bool rotating, double skin_m,
+                                std::vector<Vec3> list_built_at, std::size_t list_builds);
 
  private:
   void update_spheres_from_bodies();

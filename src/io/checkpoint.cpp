@@ -1,0 +1,247 @@
+#include "io/checkpoint.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <type_traits>
+
+#include "core/error.hpp"
+
+namespace biodem::io {
+namespace {
+
+constexpr char kMagic[8] = {'B', 'I', 'O', 'D', 'E', 'M', 'C', 'K'};
+
+class Out {
+ public:
+  template <class T>
+  void pod(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const auto* p = reinterpret_cast<const char*>(&v);
+    buf_.insert(buf_.end(), p, p + sizeof(T));
+  }
+  template <class T>
+  void vec(const std::vector<T>& v) {
+    pod<std::uint64_t>(v.size());
+    if (v.empty()) return;
+    const auto* p = reinterpret_cast<const char*>(v.data());
+    buf_.insert(buf_.end(), p, p + sizeof(T) * v.size());
+  }
+  void str(const std::string& s) {
+    pod<std::uint64_t>(s.size());
+    buf_.insert(buf_.end(), s.begin(), s.end());
+  }
+  std::vector<char>& bytes() { return buf_; }
+
+ private:
+  std::vector<char> buf_;
+};
+
+class In {
+ public:
+  In(const char* p, std::size_t n, std::string name) : p_(p), n_(n), name_(std::move(name)) {}
+  template <class T>
+  T pod() {
+    T v;
+    need(sizeof(T));
+    std::memcpy(&v, p_ + off_, sizeof(T));
+    off_ += sizeof(T);
+    return v;
+  }
+  template <class T>
+  void vec(std::vector<T>& v) {
+    const auto n = pod<std::uint64_t>();
+    if (n > n_) throw Error(name_ + ": corrupt checkpoint (array length)");
+    need(n * sizeof(T));
+    v.resize(n);
+    if (n) std::memcpy(v.data(), p_ + off_, n * sizeof(T));
+    off_ += n * sizeof(T);
+  }
+  std::string str() {
+    const auto n = pod<std::uint64_t>();
+    need(n);
+    std::string s(p_ + off_, n);
+    off_ += n;
+    return s;
+  }
+  bool done() const { return off_ == n_; }
+
+ private:
+  void need(std::size_t k) const {
+    if (off_ + k > n_) throw Error(name_ + ": truncated checkpoint");
+  }
+  const char* p_;
+  std::size_t n_, off_ = 0;
+  std::string name_;
+};
+
+template <class Stream, class Store>
+void body_fields(Stream& s, Store& b) {
+  s.vec(b.position_m);
+  s.vec(b.velocity_m_s);
+  s.vec(b.angular_velocity_rad_s);
+  s.vec(b.angular_momentum_kg_m2_s);
+  s.vec(b.orientation);
+  s.vec(b.mass_kg);
+  s.vec(b.inertia_kg_m2);
+  s.vec(b.shape);
+  s.vec(b.id);
+  s.vec(b.first_sphere);
+  s.vec(b.sphere_count);
+  s.vec(b.force_n);
+  s.vec(b.torque_n_m);
+}
+template <class Stream, class Store>
+void sphere_fields(Stream& s, Store& p) {
+  s.vec(p.position_m);
+  s.vec(p.velocity_m_s);
+  s.vec(p.angular_velocity_rad_s);
+  s.vec(p.radius_m);
+  s.vec(p.offset_body_m);
+  s.vec(p.body);
+  s.vec(p.material);
+  s.vec(p.body_mass_kg);
+  s.vec(p.force_n);
+  s.vec(p.torque_n_m);
+}
+template <class Stream, class List>
+void list_fields(Stream& s, List& l) {
+  s.vec(l.row_start);
+  s.vec(l.j);
+  s.vec(l.image);
+  s.vec(l.history);
+  s.vec(l.touching);
+  s.vec(l.force_i);
+  s.vec(l.torque_i);
+  s.vec(l.torque_j);
+  s.vec(l.rev_start);
+  s.vec(l.rev_entry);
+}
+
+}  // namespace
+
+std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < n; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, const RunProgress& rp) {
+  auto& sim = const_cast<sim::Simulation&>(sim_c);  // the field helpers take non-const stores; nothing is modified
+  Out o;
+  o.pod(rp.case_hash);
+  o.pod(rp.phase_index);
+  o.pod(rp.phase_step);
+  o.pod(rp.settle_counter);
+  o.pod(rp.rotation_time_s);
+  o.pod(rp.snapshot_index);
+  o.pod(rp.series_bytes);
+  o.pod(rp.trace_bytes);
+  for (const auto* pvd : {&rp.pvd_spheres, &rp.pvd_bodies}) {
+    o.pod<std::uint64_t>(pvd->size());
+    for (const auto& [t, f] : *pvd) {
+      o.pod(t);
+      o.str(f);
+    }
+  }
+  o.pod(sim.time_s());
+  o.pod<std::uint64_t>(sim.step_count());
+  o.pod<std::uint8_t>(sim.drum_rotating() ? 1 : 0);
+  o.pod<std::uint64_t>(sim.walls().size());
+  o.pod<std::uint64_t>(sim.templates().size());
+  body_fields(o, sim.bodies_mut());
+  sphere_fields(o, sim.spheres_mut());
+  o.vec(sim.wall_history());
+  o.vec(sim.wall_touching());
+  list_fields(o, sim.neighbor_list_mut());
+  o.vec(sim.neighbor_list().built_at());
+  o.pod<std::uint64_t>(sim.neighbor_list().builds());
+  o.pod<double>(sim.skin_m());
+
+  const auto& payload = o.bytes();
+  const std::uint64_t sum = fnv1a(payload.data(), payload.size());
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) throw Error(path + ": cannot write checkpoint");
+    f.write(kMagic, sizeof kMagic);
+    const std::uint32_t version = kCheckpointVersion;
+    const std::uint64_t size = payload.size();
+    f.write(reinterpret_cast<const char*>(&version), sizeof version);
+    f.write(reinterpret_cast<const char*>(&size), sizeof size);
+    f.write(payload.data(), static_cast<std::streamsize>(payload.size()));
+    f.write(reinterpret_cast<const char*>(&sum), sizeof sum);
+    f.flush();
+    if (!f) throw Error(path + ": checkpoint write failed (disk full?)");
+  }
+  if (int fd = ::open(tmp.c_str(), O_RDONLY); fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw Error(path + ": cannot rename checkpoint: " + ec.message());
+}
+
+RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": no checkpoint to resume from");
+  std::vector<char> all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+  if (all.size() < head + sizeof(std::uint64_t) || std::memcmp(all.data(), kMagic, sizeof kMagic) != 0)
+    throw Error(path + ": not a biodem checkpoint");
+  std::uint32_t version;
+  std::uint64_t size, sum;
+  std::memcpy(&version, all.data() + sizeof kMagic, sizeof version);
+  std::memcpy(&size, all.data() + sizeof kMagic + sizeof version, sizeof size);
+  if (version != kCheckpointVersion)
+    throw Error(path + ": checkpoint format version " + std::to_string(version) + ", this biodem reads version " +
+                std::to_string(kCheckpointVersion));
+  if (all.size() != head + size + sizeof sum) throw Error(path + ": truncated checkpoint");
+  std::memcpy(&sum, all.data() + head + size, sizeof sum);
+  if (fnv1a(all.data() + head, size) != sum) throw Error(path + ": checkpoint checksum mismatch (corrupt file)");
+
+  In in(all.data() + head, size, path);
+  RunProgress rp;
+  rp.case_hash = in.pod<std::uint64_t>();
+  rp.phase_index = in.pod<std::uint64_t>();
+  rp.phase_step = in.pod<std::uint64_t>();
+  rp.settle_counter = in.pod<std::uint64_t>();
+  rp.rotation_time_s = in.pod<double>();
+  rp.snapshot_index = in.pod<std::uint64_t>();
+  rp.series_bytes = in.pod<std::uint64_t>();
+  rp.trace_bytes = in.pod<std::uint64_t>();
+  for (auto* pvd : {&rp.pvd_spheres, &rp.pvd_bodies}) {
+    const auto n = in.pod<std::uint64_t>();
+    for (std::uint64_t k = 0; k < n; ++k) {
+      const double t = in.pod<double>();
+      pvd->emplace_back(t, in.str());
+    }
+  }
+  const double time = in.pod<double>();
+  const auto steps = in.pod<std::uint64_t>();
+  const bool rotating = in.pod<std::uint8_t>() != 0;
+  if (in.pod<std::uint64_t>() != sim.walls().size() || in.pod<std::uint64_t>() != sim.templates().size())
+    throw Error(path + ": checkpoint does not match this case (walls or shapes differ)");
+  body_fields(in, sim.bodies_mut());
+  sphere_fields(in, sim.spheres_mut());
+  in.vec(sim.wall_history());
+  in.vec(sim.wall_touching());
+  list_fields(in, sim.neighbor_list_mut());
+  std::vector<Vec3> built_at;
+  in.vec(built_at);
+  const auto builds = in.pod<std::uint64_t>();
+  const double skin = in.pod<double>();
+  if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
+  sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
+  return rp;
+}
+
+}  // namespace biodem::io
