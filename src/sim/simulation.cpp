@@ -185,6 +185,39 @@ void Simulation::reorder_spatially() {
   list_.renumber(new_of_old_sphere);
 }
 
+void Simulation::rebuild_neighbors() {
+  list_.build(spheres_);
+  update_wall_candidates();
+}
+
+void Simulation::update_wall_candidates() {
+  const std::size_t n = spheres_.size(), nw = walls_.size();
+  const auto& at = list_.built_at();
+  wall_candidates_.assign(n, 0);
+  if (nw > 64) {  // masks hold 64 walls: beyond that every wall is checked every step
+    std::fill(wall_candidates_.begin(), wall_candidates_.end(), ~std::uint64_t{0});
+    return;
+  }
+#pragma omp parallel for schedule(static) if (n >= kParallelThreshold)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint64_t m = 0;
+    const double reach = spheres_.radius_m[i] + skin_m_;
+    for (std::size_t w = 0; w < nw; ++w) {
+      // Enlarge the finite extents by the reach too, so that a sphere sliding over a disc rim or
+      // a cylinder end before the next build is still a candidate.
+      walls::WallGeometry g = walls_[w].geometry;
+      if (g.kind == walls::Kind::Disc) g.radius_m += reach;
+      if (g.kind == walls::Kind::Cylinder && g.length_m > 0.0) {
+        g.point_m -= reach * g.normal;
+        g.length_m += 2.0 * reach;
+      }
+      const walls::WallHit h = walls::wall_hit(g, at[i], reach);
+      if (h.touching || wall_touching_[i * nw + w]) m |= std::uint64_t{1} << w;
+    }
+    wall_candidates_[i] = m;
+  }
+}
+
 void Simulation::refresh() {
   if (skin_m_ < 0.0) {
     double rmin = 1e300;
@@ -193,7 +226,7 @@ void Simulation::refresh() {
   }
   list_.configure(domain_, skin_m_);
   update_spheres_from_bodies();
-  list_.build(spheres_);
+  rebuild_neighbors();
   list_valid_ = true;
   compute_forces();
   reduce_to_bodies();
@@ -209,6 +242,7 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
   skin_m_ = skin_m;
   list_.configure(domain_, skin_m_);
   list_.restore_bookkeeping(std::move(list_built_at), list_builds);
+  update_wall_candidates();
   list_valid_ = true;
   forces_valid_ = true;
 }
@@ -234,7 +268,7 @@ void Simulation::step() {
   update_spheres_from_bodies();
   if (list_.needs_rebuild(spheres_)) {
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
-    list_.build(spheres_);
+    rebuild_neighbors();
   }
   compute_forces();
   reduce_to_bodies();
@@ -325,7 +359,9 @@ void Simulation::compute_forces_impl() {
       f -= L.force_i[k];
       t += L.torque_j[k];
     }
-    for (std::size_t w = 0; w < nw; ++w) {
+    for (std::uint64_t mask = wall_candidates_[i]; mask != 0; mask &= mask - 1) {
+      const std::size_t w = static_cast<std::size_t>(__builtin_ctzll(mask));
+      if (w >= nw) break;
       const WallSpec& ws = walls_[w];
       const double ri = s.radius_m[i];
       const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);

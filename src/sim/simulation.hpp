@@ -109,6 +109,11 @@ class Simulation {
   /// Renumbers bodies (and their spheres) in cell order so that neighbours are close in memory;
   /// remaps the contact history. Stable ids are kept in BodyStore::id.
   void reorder_spatially();
+  /// Rebuilds the list and the per-sphere wall candidate masks.
+  void rebuild_neighbors();
+  /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2
+  /// between builds, so no other wall can be touched before the next build).
+  void update_wall_candidates();
 
   std::vector<shapes::ClumpTemplate> templates_;
   std::vector<double> density_;
@@ -123,6 +128,7 @@ class Simulation {
   double skin_m_ = -1.0;
   std::vector<contact::ContactHistory> wall_history_;  // [sphere * n_walls + wall]
   std::vector<std::uint8_t> wall_touching_;
+  std::vector<std::uint64_t> wall_candidates_;  // bit w set: wall w is within reach of the sphere
   bool list_valid_ = false;
   bool forces_valid_ = false;
   double drum_omega_ = 0.0;
