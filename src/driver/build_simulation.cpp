@@ -3,6 +3,7 @@
 #include "contact/time_step.hpp"
 #include "contact/viscous_damping.hpp"
 #include "core/error.hpp"
+#include "io/case_report.hpp"
 
 namespace biodem::driver {
 namespace {
@@ -70,7 +71,7 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
     s.material = static_cast<std::uint16_t>(w.material);
     sim.add_wall(s);
   }
-  if (c.run.skin_m) sim.set_skin(*c.run.skin_m);
+  sim.set_skin(io::resolved_skin_m(c));
   for (const auto& p : c.particles) {
     sim::BodyInit b;
     b.shape = static_cast<std::uint32_t>(p.shape);

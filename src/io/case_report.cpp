@@ -139,7 +139,9 @@ double resolved_skin_m(const config::CaseConfig& c) {
   if (c.run.skin_m) return *c.run.skin_m;
   double rmin = std::numeric_limits<double>::infinity();
   for (const auto& [s, t] : used_templates(c)) rmin = std::min(rmin, t.min_radius_m);
-  return std::isfinite(rmin) ? rmin : 0.0;  // half the smallest diameter = the smallest radius
+  // A quarter of the smallest sphere diameter: measured on the glass drum, it halves the list
+  // length against d/2 for about twice as many (cheap) rebuilds, a net 1.5-2x speed-up.
+  return std::isfinite(rmin) ? 0.5 * rmin : 0.0;
 }
 
 std::string describe_case(const config::CaseConfig& c) {
@@ -151,7 +153,7 @@ std::string describe_case(const config::CaseConfig& c) {
 
   os << "case: " << (c.source_path.empty() ? "(in memory)" : c.source_path) << "\n";
   os << "run: dt = " << num(dt) << " s, seed = " << c.run.seed << ", gravity = " << vec(c.run.gravity_m_s2)
-     << " m/s^2, skin = " << num(resolved_skin_m(c)) << " m" << (c.run.skin_m ? "" : " (default: half the smallest sphere diameter)");
+     << " m/s^2, skin = " << num(resolved_skin_m(c)) << " m" << (c.run.skin_m ? "" : " (default: a quarter of the smallest sphere diameter)");
   if (c.run.allow_large_dt) os << ", allow_large_dt";
   if (c.run.allow_initial_overlap) os << ", allow_initial_overlap";
   os << "\n";

@@ -36,7 +36,7 @@ std::uint64_t implied_particle_count(const config::CaseConfig& c);
 /// smallest sphere radius of its shape after coarse graining. +infinity if there is none.
 double smallest_rayleigh_time_s(const config::CaseConfig& c);
 
-/// [run].skin_m, or its default: half the smallest sphere diameter in use (0 if none).
+/// [run].skin_m, or its default: a quarter of the smallest sphere diameter in use (0 if none).
 double resolved_skin_m(const config::CaseConfig& c);
 
 /// The resolved case and its derived quantities as readable multi-line text.
