@@ -161,7 +161,8 @@ int run_video(const VideoOptions& o) {
   params.surface.bin_px = o.bin_px;
   params.surface.wall_zone_px = o.wall_zone_px;
 
-  // The camera is fixed: the disc is found once, on the first readable frame.
+  // The camera is fixed: the disc is found once, on the first readable frame where its rim shows
+  // (frames taken while a drum is being filled can hide most of the rim; up to 50 are tried).
   std::size_t first = 0;
   cv::Mat first_img;
   for (; first < frames.size(); ++first) {
@@ -175,11 +176,22 @@ int run_video(const VideoOptions& o) {
   if (given_centre) {
     disc = {o.center_px[0], o.center_px[1], o.radius_px};
   } else {
-    try {
-      disc = analysis::find_drum_disc(first_img);
-    } catch (const Error& e) {
-      throw Error(frames[first].filename().string() + ": " + e.what());
+    std::string first_error;
+    bool found = false;
+    for (std::size_t k = first, tried = 0; k < frames.size() && tried < 50 && !found; ++k) {
+      const cv::Mat img = k == first ? first_img : read_grey(frames[k]);
+      if (img.empty()) continue;
+      ++tried;
+      try {
+        disc = analysis::find_drum_disc(img);
+        found = true;
+        first = k;
+        first_img = img;
+      } catch (const Error& e) {
+        if (first_error.empty()) first_error = frames[k].filename().string() + ": " + e.what();
+      }
     }
+    if (!found) throw Error(first_error);
   }
   if (!o.quiet)
     std::cerr << "drum disc: centre (" << fmt(disc.cx_px, "%.1f") << ", " << fmt(disc.cy_px, "%.1f")
