@@ -187,10 +187,17 @@ DrumDisc find_drum_disc(const cv::Mat& gray) {
     const auto k = static_cast<std::size_t>(std::clamp((a + std::numbers::pi) / (2.0 * std::numbers::pi) * 36.0, 0.0, 35.0));
     sector[k] = true;
   }
-  const auto seen = std::count(sector.begin(), sector.end(), true);
   // A dense bed touching the rim hides part of it and adds a long, jagged surface outline, so
-  // the arc may be a minority of the outline points: require 120 deg of rim and 1/8 of points.
-  if (seen < 12 || in.size() < pts.size() / 8)
+  // the arc may be a minority of the outline points: require one unbroken arc of at least
+  // 120 deg (12 of 36 sectors, wrapping round) and 1/8 of the points. A square or a blob gives
+  // inliers in short separate clusters only.
+  std::size_t longest = 0;
+  for (std::size_t start = 0; start < sector.size(); ++start) {
+    std::size_t run = 0;
+    while (run < sector.size() && sector[(start + run) % sector.size()]) ++run;
+    longest = std::max(longest, run);
+  }
+  if (longest < 12 || in.size() < pts.size() / 8)
     throw Error("could not find the drum disc: no circular outline (give --center-px and "
                 "--radius-px)");
   return DrumDisc{best_c.cx, best_c.cy, best_c.r};

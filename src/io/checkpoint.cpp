@@ -116,7 +116,6 @@ void list_fields(Stream& s, List& l) {
   s.vec(l.history);
   s.vec(l.touching);
   s.vec(l.force_i);
-  s.vec(l.torque_i);
   s.vec(l.torque_j);
   s.vec(l.rev_start);
   s.vec(l.rev_entry);

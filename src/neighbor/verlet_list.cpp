@@ -179,7 +179,6 @@ void VerletList::build(const state::SphereStore& s) {
   history.swap(new_hist);
   touching.swap(new_touch);
   force_i.assign(m, Vec3{});
-  torque_i.assign(m, Vec3{});
   torque_j.assign(m, Vec3{});
 
   // Reverse index (entries sorted by row, so each sphere's list is in ascending i order).

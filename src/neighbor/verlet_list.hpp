@@ -68,7 +68,7 @@ class VerletList {
   std::vector<std::int32_t> image;
   std::vector<contact::ContactHistory> history;
   std::vector<std::uint8_t> touching;
-  std::vector<Vec3> force_i, torque_i, torque_j;
+  std::vector<Vec3> force_i, torque_j;  // j's share of this step's pair result (force on i, torque on j)
   // Reverse index: entries where the sphere is the j side.
   std::vector<std::uint32_t> rev_start;
   std::vector<std::uint32_t> rev_entry;

@@ -309,11 +309,13 @@ void Simulation::compute_forces_impl() {
   const double dt = dt_s_;
   std::size_t pair_contacts = 0, wall_contacts = 0;
 
-  // Pair entries: each entry is written by the thread that owns its row.
+  // Pair entries: each entry is written by the thread that owns its row; the row owner sums
+  // its own side at once, and stores for the j side what j will gather (force and torque).
 #pragma omp parallel for schedule(dynamic, 128) reduction(+ : pair_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3 xi = s.position_m[i];
     const double ri = s.radius_m[i];
+    Vec3 f_own, t_own;
     for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
       const std::uint32_t j = L.j[k];
       Vec3 d = xi - s.position_m[j];
@@ -325,7 +327,6 @@ void Simulation::compute_forces_impl() {
           L.touching[k] = 0;
           L.history[k] = {};
           L.force_i[k] = {};
-          L.torque_i[k] = {};
           L.torque_j[k] = {};
         }
         continue;
@@ -339,21 +340,20 @@ void Simulation::compute_forces_impl() {
       const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt);
       L.touching[k] = 1;
       L.force_i[k] = out.force_i;
-      L.torque_i[k] = out.torque_i;
       L.torque_j[k] = out.torque_j;
+      f_own += out.force_i;
+      t_own += out.torque_i;
       ++pair_contacts;
     }
+    spheres_.force_n[i] = f_own;
+    spheres_.torque_n_m[i] = t_own;
   }
 
   // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
   const std::size_t nw = walls_.size();
 #pragma omp parallel for schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
-    Vec3 f, t;
-    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
-      f += L.force_i[k];
-      t += L.torque_i[k];
-    }
+    Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
     for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
       const std::uint32_t k = L.rev_entry[q];
       f -= L.force_i[k];
