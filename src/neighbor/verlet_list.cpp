@@ -29,8 +29,12 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (std::size_t i = 0; i < n; ++i)
     for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], s.position_m[i][k]);
-      hi[k] = std::max(hi[k], s.position_m[i][k]);
+      const double x = s.position_m[i][k];
+      if (!std::isfinite(x))
+        throw Error("sphere " + std::to_string(i) +
+                    " has a non-finite position: the simulation became unstable (is [run].dt_s too large?)");
+      lo[k] = std::min(lo[k], x);
+      hi[k] = std::max(hi[k], x);
     }
   const Vec3 len = dom.length_m();
   // Cap the number of cells at ~4 per sphere (sparse scenes) by enlarging the cell if needed.
@@ -241,7 +245,7 @@ bool VerletList::needs_rebuild(const state::SphereStore& s) const {
   int flag = 0;
 #pragma omp parallel for reduction(| : flag) schedule(static) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i)
-    if (norm2(s.position_m[i] - built_at_[i]) > limit2) flag = 1;
+    if (!(norm2(s.position_m[i] - built_at_[i]) <= limit2)) flag = 1;  // NaN also triggers a (failing) build
   return flag != 0;
 }
 
