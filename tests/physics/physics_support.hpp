@@ -76,6 +76,28 @@ inline shapes::ClumpTemplate sphere_template(double radius_m) {
   return shapes::make_template(s, 1.0);
 }
 
+/// Needle clump of SPEC 3 (d50, aspect ratio a50, overlap factor c), lengths times `coarse_grain`.
+inline shapes::ClumpTemplate needle_template(double d50_m, double aspect_ratio, double overlap_factor,
+                                             double coarse_grain) {
+  config::Shape s;
+  s.name = "needle";
+  s.kind = config::ShapeKind::Needle;
+  s.d50_m = d50_m;
+  s.aspect_ratio = aspect_ratio;
+  s.overlap_factor = overlap_factor;
+  return shapes::make_template(s, coarse_grain);
+}
+
+/// General clump template from sphere centres and radii (any frame: the engine recentres it).
+inline shapes::ClumpTemplate clump_template(const std::vector<Vec3>& centres_m, const std::vector<double>& radii_m) {
+  config::Shape s;
+  s.name = "clump";
+  s.kind = config::ShapeKind::Clump;
+  for (std::size_t i = 0; i < centres_m.size(); ++i)
+    s.spheres.push_back({{centres_m[i].x, centres_m[i].y, centres_m[i].z}, radii_m[i]});
+  return shapes::make_template(s, 1.0);
+}
+
 /// Everything needed to build a Simulation with one particle and one wall material.
 struct SimSetup {
   Material particle;
