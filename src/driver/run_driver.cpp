@@ -104,6 +104,7 @@ class Runner {
   std::ofstream log_;
   std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
   std::size_t frame_index_ = 0;
+  std::uint64_t last_sample_step_ = ~std::uint64_t{0}, last_snapshot_step_ = ~std::uint64_t{0};
   analysis::SurfaceParams surface_params_{};
   std::uint64_t case_hash_ = 0;
   // Where the run is, for checkpoints.
@@ -137,6 +138,8 @@ void Runner::report_progress(const std::string& label) {
 }
 
 void Runner::sample() {
+  if (last_sample_step_ == sim_.step_count()) return;  // already sampled at this step
+  last_sample_step_ = sim_.step_count();
   const auto& b = sim_.bodies();
   double m = 0.0, xc = 0.0, yc = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {
@@ -179,6 +182,7 @@ void Runner::sample() {
 }
 
 void Runner::snapshot() {
+  last_snapshot_step_ = sim_.step_count();
   const auto& s = sim_.spheres();
   const auto& b = sim_.bodies();
   char name[64];
@@ -274,6 +278,10 @@ void Runner::resume() {
   fs::resize_file(opt_.out_dir + "/series.csv", resumed_.series_bytes);
   if (cfg_.output.trace) fs::resize_file(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
   resumed_run_ = true;
+  // A checkpoint is taken after the step's sample and snapshot: do not repeat them.
+  last_sample_step_ = sim_.step_count();
+  last_snapshot_step_ = snapshot_every_ && sim_.step_count() % snapshot_every_ == 0 ? sim_.step_count()
+                                                                                      : last_snapshot_step_;
 }
 
 void Runner::insert_all() {
@@ -288,7 +296,9 @@ void Runner::insert_all() {
   region.z_min_m = 0.0;
   region.z_max_m = built_.drum->width_m;
   region.periodic_z = built_.drum->periodic_axis;
-  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * built_.drum->diameter_m / 9.81));
+  const auto& gv = cfg_.run.gravity_m_s2;
+  const double g = std::max(1e-6, std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]));
+  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * built_.drum->diameter_m / g));
   const std::uint64_t fall_steps = std::max<std::uint64_t>(1, steps_for(fall_s, cfg_.run.dt_s));
   std::size_t next = 0;
   int waves = 0, empty_waves = 0;
@@ -314,7 +324,6 @@ void Runner::insert_all() {
       }
     }
   }
-  sim_.refresh();
 }
 
 void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below) {
@@ -357,6 +366,7 @@ RunSummary Runner::run() {
       throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin does not exist (nothing to resume)");
   } else {
     io::prepare_output_dir(opt_.out_dir);
+    fs::remove(opt_.out_dir + "/checkpoint.bin");  // a fresh run never resumes an older one
   }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
@@ -373,11 +383,12 @@ RunSummary Runner::run() {
   if (cfg_.output.checkpoint_every_s)
     checkpoint_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.checkpoint_every_s, dt));
   {
-    // Free-surface profile parameters scale with the particle size: the volume-equivalent
-    // diameter of the (first) inserted shape, or of the largest sphere for explicit scenes.
+    // Free-surface profile parameters scale with the particle size: the largest volume-equivalent
+    // diameter among the inserted shapes, or among all shapes for explicit scenes.
     double d = 0.0;
-    if (!built_.populations.empty()) d = sim_.templates()[built_.populations[0].shape].equivalent_diameter_m();
-    for (const auto& t : sim_.templates()) d = d > 0.0 ? d : 2.0 * t.max_radius_m;
+    for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
+    if (built_.populations.empty())
+      for (const auto& t : sim_.templates()) d = std::max(d, t.equivalent_diameter_m());
     surface_params_ = analysis::SurfaceParams::for_particle_diameter(d > 0.0 ? d : 1e-3);
   }
 
@@ -399,6 +410,7 @@ RunSummary Runner::run() {
     pvd_->set_entries(resumed_.pvd_spheres);
     pvd_bodies_->set_entries(resumed_.pvd_bodies);
     first_phase = resumed_.phase_index;
+    if (first_phase >= phases.size()) last_snapshot_step_ = sim_.step_count();  // the run had finished
     first_step = resumed_.phase_step;
     first_below = resumed_.settle_counter;
     phase_index_ = first_phase;
@@ -421,6 +433,7 @@ RunSummary Runner::run() {
     total_steps_estimate_ += sim_.step_count();
     sample();
     snapshot();
+    if (checkpoint_every_) checkpoint();  // resumable from the end of insertion on
   }
   const std::uint64_t steps_at_start = sim_.step_count();
   for (std::size_t i = first_phase; i < phases.size(); ++i) {
@@ -429,7 +442,10 @@ RunSummary Runner::run() {
     settle_counter_ = 0;
   }
   if (sim_.step_count() % sample_every_ != 0) sample();  // the series always ends at the final state
-  if (!snapshot_every_ || sim_.step_count() % snapshot_every_ != 0) snapshot();
+  if (last_snapshot_step_ != sim_.step_count()) snapshot();
+  phase_index_ = phases.size();
+  phase_step_ = 0;
+  if (checkpoint_every_) checkpoint();  // the final state: a later --resume finds nothing left to do
   series_->flush();
   if (trace_) trace_->flush();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

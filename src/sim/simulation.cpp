@@ -228,7 +228,15 @@ void Simulation::refresh() {
   update_spheres_from_bodies();
   rebuild_neighbors();
   list_valid_ = true;
+  // Forces for the first half kick; this is not a time step, so the contact history (tangential
+  // and rolling springs) must not advance: it is restored after the evaluation.
+  const auto pair_history = list_.history;
+  const auto wall_history = wall_history_;
   compute_forces();
+  for (std::size_t k = 0; k < pair_history.size(); ++k)
+    if (list_.touching[k]) list_.history[k] = pair_history[k];
+  for (std::size_t k = 0; k < wall_history.size(); ++k)
+    if (wall_touching_[k]) wall_history_[k] = wall_history[k];
   reduce_to_bodies();
   forces_valid_ = true;
 }

@@ -32,7 +32,7 @@ struct BodyStore {
   std::vector<Vec3> position_m;         // centre of mass
   std::vector<Vec3> velocity_m_s;
   std::vector<Vec3> angular_velocity_rad_s;  // lab frame
-  std::vector<Vec3> angular_momentum_kg_m2_s;  // lab frame (clumps; kept in sync for spheres)
+  std::vector<Vec3> angular_momentum_kg_m2_s;  // lab frame; integrated for clumps only (spheres use omega directly)
   std::vector<Quat> orientation;        // body -> lab
   std::vector<double> mass_kg;
   std::vector<Vec3> inertia_kg_m2;      // principal moments (body frame)

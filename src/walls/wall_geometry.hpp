@@ -3,7 +3,7 @@
 // contact geometry as a particle pair so that the same force laws apply. Pure functions.
 //
 // Sign conventions: the normal n points from the wall into the particle side; the overlap is
-// delta = r - gap, positive in contact; `contact_point` is on the wall surface.
+// delta = r - gap, positive in contact; the wall surface point is centre - gap * n.
 #pragma once
 #include <cmath>
 

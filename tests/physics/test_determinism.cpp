@@ -15,6 +15,7 @@
 #include <random>
 #include <vector>
 
+#include "core/parallel.hpp"
 #include "physics_support.hpp"
 
 using namespace biodem;
@@ -36,6 +37,12 @@ struct Snapshot {
 Snapshot run(int threads, std::uint64_t steps, std::size_t sort_every_builds = 16) {
   const ScopedThreads scoped(threads);
   EXPECT_EQ(omp_get_max_threads(), threads);
+  // The system is small: lower the serial threshold so that every loop really runs threaded.
+  struct Threshold {
+    std::size_t old = kParallelThreshold;
+    Threshold() { set_parallel_threshold(0); }
+    ~Threshold() { set_parallel_threshold(old); }
+  } threshold;
   config::Shape needle;
   needle.name = "needle";
   needle.kind = config::ShapeKind::Needle;
