@@ -3,7 +3,9 @@
 # session (README "Performance"). Figures: sphere-steps per second per core over the timed
 # rotation phase (settled bed), and the ratio biodem / LIGGGHTS.
 #
-#   bash bench/run_bench.sh [case ...]      cases: glass_small glass raw (default: glass_small glass)
+#   bash bench/run_bench.sh [case ...]      cases: bench/cases/<case>_bench.toml or <case>.toml:
+#                                           glass_small glass raw clump_overhead_needles
+#                                           clump_overhead_spheres (default: glass_small glass)
 #
 # Environment: THREADS="1 2" (biodem threads and LIGGGHTS MPI ranks), NO_LIGGGHTS=1 to skip the
 # peer, OUT=/tmp/biodem-bench. Build first with scripts/build.sh (optionally -DBIODEM_NATIVE=ON).
@@ -21,7 +23,8 @@ for c in $cases; do
   for t in $THREADS; do
     d="$OUT/biodem_${c}_t$t"
     rm -rf "$d"
-    "$root/build/biodem" run "$here/cases/${c}_bench.toml" --out "$d" --threads "$t" > "$d.screen" 2>&1
+    f="$here/cases/${c}_bench.toml"; [ -f "$f" ] || f="$here/cases/${c}.toml"
+    "$root/build/biodem" run "$f" --out "$d" --threads "$t" > "$d.screen" 2>&1
     line=$(grep "phase 'rotate' ends" "$d/run.log")
     steps=$(sed -E "s/.* after ([0-9]+) steps.*/\1/" <<<"$line")
     wall=$(sed -E "s/.*wall ([0-9.e+-]+) s.*/\1/" <<<"$line")
@@ -29,7 +32,8 @@ for c in $cases; do
     rate=$(python3 -c "print(f'{$spheres*$steps/$wall/$t:.4g}')")
     echo "biodem,$c,$t,$spheres,$steps,$wall,$rate" | tee -a "$results"
   done
-  if [ -z "${NO_LIGGGHTS:-}" ] && command -v liggghts > /dev/null; then
+  case $c in glass|glass_small|raw) peer=1 ;; *) peer= ;; esac   # LIGGGHTS inputs exist for these
+  if [ -n "$peer" ] && [ -z "${NO_LIGGGHTS:-}" ] && command -v liggghts > /dev/null; then
     for t in $THREADS; do
       (cd "$here/liggghts" && NPS="$t" NICE= sh run_bench.sh "_cmp" "$c" > /dev/null 2>&1) || true
       log="$here/liggghts/logs/${c}_np${t}_cmp.log"
