@@ -3,7 +3,7 @@
 #include <cstring>
 #include <sstream>
 
-#include "io/atomic_write.hpp"
+#include "io/output_dir.hpp"
 
 namespace biodem::io {
 namespace {
@@ -77,7 +77,7 @@ void write_vtu(const std::string& path, const PointCloud& c) {
     << "<DataArray type=\"Int64\" Name=\"offsets\" format=\"binary\">" << encode(offs) << "</DataArray>\n"
     << "<DataArray type=\"UInt8\" Name=\"types\" format=\"binary\">" << encode(types) << "</DataArray>\n"
     << "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
-  replace_file_atomically(path, o.str());
+  write_file_atomic(path, o.str());
 }
 
 void PvdCollection::add(double time_s, const std::string& file) {
@@ -93,7 +93,7 @@ void PvdCollection::write() const {
   for (const auto& [t, f] : entries_)
     o << "<DataSet timestep=\"" << t << "\" group=\"\" part=\"0\" file=\"" << f << "\"/>\n";
   o << "</Collection>\n</VTKFile>\n";
-  replace_file_atomically(path_, o.str());
+  write_file_atomic(path_, o.str());
 }
 
 }  // namespace biodem::io
