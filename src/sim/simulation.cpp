@@ -86,6 +86,7 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
 }
 
 void Simulation::update_spheres_from_bodies() {
+  spheres_stale_ = false;
   const std::size_t nb = bodies_.size();
 #pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
@@ -292,8 +293,9 @@ void Simulation::step() {
           bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia);
     }
   }
-  // Sphere velocities at the full step (used by diagnostics and outputs).
-  update_spheres_from_bodies();
+  // Sphere velocities at the full step are refreshed lazily, when someone reads the spheres
+  // (outputs, diagnostics); the next step refreshes them anyway.
+  spheres_stale_ = true;
   time_s_ += dt;
   ++steps_;
 }

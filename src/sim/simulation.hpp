@@ -70,9 +70,15 @@ class Simulation {
   std::uint64_t step_count() const { return steps_; }
   void set_step_count(std::uint64_t n) { steps_ = n; }
   double dt_s() const { return dt_s_; }
-  const state::SphereStore& spheres() const { return spheres_; }
+  const state::SphereStore& spheres() const {
+    if (spheres_stale_) const_cast<Simulation*>(this)->update_spheres_from_bodies();
+    return spheres_;
+  }
   const state::BodyStore& bodies() const { return bodies_; }
-  state::SphereStore& spheres_mut() { return spheres_; }
+  state::SphereStore& spheres_mut() {
+    if (spheres_stale_) update_spheres_from_bodies();
+    return spheres_;
+  }
   state::BodyStore& bodies_mut() { return bodies_; }
   const std::vector<shapes::ClumpTemplate>& templates() const { return templates_; }
   const std::vector<WallSpec>& walls() const { return walls_; }
@@ -130,6 +136,7 @@ class Simulation {
   std::vector<std::uint8_t> wall_touching_;
   std::vector<std::uint64_t> wall_candidates_;  // bit w set: wall w is within reach of the sphere
   bool list_valid_ = false;
+  bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;
   double drum_omega_ = 0.0;
   bool drum_rotating_ = false;
