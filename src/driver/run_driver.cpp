@@ -366,7 +366,12 @@ RunSummary Runner::run() {
       throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin does not exist (nothing to resume)");
   } else {
     io::prepare_output_dir(opt_.out_dir);
-    fs::remove(opt_.out_dir + "/checkpoint.bin");  // a fresh run never resumes an older one
+    // A fresh run replaces the outputs of an earlier run in the same folder: an old checkpoint must
+    // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
+    fs::remove(opt_.out_dir + "/checkpoint.bin");
+    fs::remove(opt_.out_dir + "/trace.csv");
+    fs::remove_all(opt_.out_dir + "/snapshots");
+    fs::remove_all(opt_.out_dir + "/frames");
   }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
