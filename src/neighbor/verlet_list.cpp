@@ -133,7 +133,7 @@ void VerletList::build(const state::SphereStore& s) {
 
   // Pass 1: candidate rows, per sphere (parallel, each row written by one thread).
   std::vector<std::vector<std::pair<std::uint32_t, std::int32_t>>> rows(n);
-#pragma omp parallel for schedule(dynamic, 256) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     auto& row = rows[i];
     const Vec3 xi = s.position_m[i];
@@ -162,7 +162,7 @@ void VerletList::build(const state::SphereStore& s) {
   std::vector<contact::ContactHistory> new_hist(m);
   std::vector<std::uint8_t> new_touch(m, 0);
   const bool had_old = row_start.size() == n + 1;
-#pragma omp parallel for schedule(dynamic, 256) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     std::size_t o = had_old ? row_start[i] : 0;
     const std::size_t o_end = had_old ? row_start[i + 1] : 0;
@@ -243,7 +243,7 @@ bool VerletList::needs_rebuild(const state::SphereStore& s) const {
   const double limit2 = 0.25 * skin_m_ * skin_m_;
   const std::size_t n = s.size();
   int flag = 0;
-#pragma omp parallel for reduction(| : flag) schedule(static) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) reduction(| : flag) schedule(static) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i)
     if (!(norm2(s.position_m[i] - built_at_[i]) <= limit2)) flag = 1;  // NaN also triggers a (failing) build
   return flag != 0;

@@ -88,7 +88,7 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
 void Simulation::update_spheres_from_bodies() {
   spheres_stale_ = false;
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
     const Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b];
@@ -199,7 +199,7 @@ void Simulation::update_wall_candidates() {
     std::fill(wall_candidates_.begin(), wall_candidates_.end(), ~std::uint64_t{0});
     return;
   }
-#pragma omp parallel for schedule(static) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     std::uint64_t m = 0;
     const double reach = spheres_.radius_m[i] + skin_m_;
@@ -260,7 +260,7 @@ void Simulation::step() {
   if (!forces_valid_ || !list_valid_) refresh();
   const double h = 0.5 * dt_s_, dt = dt_s_;
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const double inv_m = 1.0 / bodies_.mass_kg[b];
     bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
@@ -281,7 +281,7 @@ void Simulation::step() {
   }
   compute_forces();
   reduce_to_bodies();
-#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
     const Vec3 inertia = bodies_.inertia_kg_m2[b];
@@ -321,7 +321,7 @@ void Simulation::compute_forces_impl() {
 
   // Pair entries: each entry is written by the thread that owns its row; the row owner sums
   // its own side at once, and stores for the j side what j will gather (force and torque).
-#pragma omp parallel for schedule(dynamic, 128) reduction(+ : pair_contacts) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(dynamic, 128) reduction(+ : pair_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3 xi = s.position_m[i];
     const double ri = s.radius_m[i];
@@ -361,7 +361,7 @@ void Simulation::compute_forces_impl() {
 
   // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
   const std::size_t nw = walls_.size();
-#pragma omp parallel for schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
     for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
@@ -404,7 +404,7 @@ void Simulation::compute_forces_impl() {
 
 void Simulation::reduce_to_bodies() {
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for schedule(static) if (nb >= kParallelThreshold)
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
   for (std::size_t b = 0; b < nb; ++b) {
     const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
     Vec3 f = bodies_.mass_kg[b] * gravity_, t;
