@@ -192,4 +192,17 @@ inline void report(const char* what, double measured, double expected) {
   std::fflush(stdout);
 }
 
+/// Least-squares slope of y(t) (accelerations and decelerations from sampled velocities).
+inline double fit_slope(const std::vector<double>& t, const std::vector<double>& y) {
+  double st = 0, sy = 0, stt = 0, sty = 0;
+  const double n = static_cast<double>(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    st += t[i];
+    sy += y[i];
+    stt += t[i] * t[i];
+    sty += t[i] * y[i];
+  }
+  return (n * sty - st * sy) / (n * stt - st * st);
+}
+
 }  // namespace biodem::phys

@@ -61,18 +61,6 @@ struct Unwrapper {
   }
 };
 
-double fit_slope(const std::vector<double>& t, const std::vector<double>& y) {
-  double st = 0, sy = 0, stt = 0, sty = 0;
-  const double n = static_cast<double>(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    st += t[i];
-    sy += y[i];
-    stt += t[i] * t[i];
-    sty += t[i] * y[i];
-  }
-  return (n * sty - st * sy) / (n * stt - st * st);
-}
-
 /// Symmetric-top precession of a template whose smallest moment (body axis 1) is its symmetry
 /// axis. Spins it at w_body = (w_s, w_p, 0) from an arbitrary orientation for `duration` s.
 void check_symmetric_top(const shapes::ClumpTemplate& t, const std::string& label) {

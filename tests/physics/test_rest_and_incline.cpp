@@ -19,19 +19,6 @@ namespace {
 constexpr double kR = 0.5e-3, kG = 9.81;
 const Material kBead{5e6, 0.22, 2550.0};
 
-/// Least-squares slope of y(t).
-double fit_slope(const std::vector<double>& t, const std::vector<double>& y) {
-  double st = 0, sy = 0, stt = 0, sty = 0;
-  const double n = static_cast<double>(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    st += t[i];
-    sy += y[i];
-    stt += t[i] * t[i];
-    sty += t[i] * y[i];
-  }
-  return (n * sty - st * sy) / (n * stt - st * st);
-}
-
 }  // namespace
 
 // 4. Resting sphere, gravity -z, e = 0.87 and the reference time step 1.5e-5 s. It starts just

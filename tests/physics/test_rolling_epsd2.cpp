@@ -31,18 +31,6 @@ constexpr double kR = 0.5 * 4.0 * 746e-6;
 constexpr double kMuR = 0.5;
 const Material kBiomass{5e6, 0.3, 350.0};
 
-double fit_slope(const std::vector<double>& t, const std::vector<double>& y) {
-  double st = 0, sy = 0, stt = 0, sty = 0;
-  const double n = static_cast<double>(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) {
-    st += t[i];
-    sy += y[i];
-    stt += t[i] * t[i];
-    sty += t[i] * y[i];
-  }
-  return (n * sty - st * sy) / (n * stt - st * st);
-}
-
 /// A sphere resting on the plane z = 0 under gravity tilted by theta about y (the slope runs
 /// down along +x), starting at rest at its static Hertz overlap.
 sim::Simulation sphere_on_plane(double theta_rad, double mu_s, const Vec3& w0 = {}) {
