@@ -4,6 +4,7 @@
 // minus j's surface (or the wall's) at the contact point, including omega x r terms;
 // `w_rel` = omega_i - omega_j (the wall's angular velocity for a wall).
 #pragma once
+#include "core/hd.hpp"
 #include "core/vec3.hpp"
 
 namespace biodem::contact {
@@ -22,7 +23,7 @@ struct ContactGeometry {
 
 /// Sphere-sphere geometry. Contact point: the middle of the overlap along the normal, i.e. at
 /// distance r_i - delta/2 from centre i.
-inline ContactGeometry sphere_sphere_geometry(const Vec3& d_ij, double dist, double r_i, double r_j,
+BIODEM_HD inline ContactGeometry sphere_sphere_geometry(const Vec3& d_ij, double dist, double r_i, double r_j,
                                               double m_i, double m_j, const Vec3& v_i, const Vec3& v_j,
                                               const Vec3& w_i, const Vec3& w_j) {
   ContactGeometry g;
@@ -41,7 +42,7 @@ inline ContactGeometry sphere_sphere_geometry(const Vec3& d_ij, double dist, dou
 /// Sphere-wall geometry: R_j, m_j -> infinity, so R* = r_i and m* = m_i. `gap` is the distance
 /// from the sphere centre to the wall surface along `normal`; `v_wall`/`w_wall` the wall's
 /// surface velocity at the contact point and its angular velocity.
-inline ContactGeometry sphere_wall_geometry(const Vec3& normal, double gap, double r_i, double m_i,
+BIODEM_HD inline ContactGeometry sphere_wall_geometry(const Vec3& normal, double gap, double r_i, double m_i,
                                             const Vec3& v_i, const Vec3& w_i, const Vec3& v_wall,
                                             const Vec3& w_wall) {
   ContactGeometry g;

@@ -5,6 +5,7 @@
 // set-up from the pair table (no per-contact dispatch). Pure function: geometry, parameters and
 // the contact's own history in; forces and torques out.
 #pragma once
+#include "core/hd.hpp"
 #include "contact/contact_geometry.hpp"
 #include "contact/epsd2_rolling.hpp"
 #include "contact/hertz_normal.hpp"
@@ -29,7 +30,7 @@ struct ContactOutput {
 };
 
 template <bool Cohesion, bool Rolling>
-inline ContactOutput evaluate_contact(const ContactGeometry& g, const PairParams& p, ContactHistory& h,
+BIODEM_HD inline ContactOutput evaluate_contact(const ContactGeometry& g, const PairParams& p, ContactHistory& h,
                                       double cohesion_area_m2, double dt) {
   const Vec3& n = g.normal;
   const double v_n = dot(g.v_rel, n);

@@ -8,6 +8,7 @@
 //     torque -M_r on i, +M_r on j
 // F_n is the scalar normal force after cohesion, as in the Coulomb limit.
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 #include "core/vec3.hpp"
@@ -15,7 +16,7 @@
 namespace biodem::contact {
 
 /// Updates `m_r` in place and returns the rolling torque on i.
-inline Vec3 epsd2_rolling_torque(Vec3& m_r, const Vec3& w_rel, const Vec3& n, double k_t, double r_eff_m,
+BIODEM_HD inline Vec3 epsd2_rolling_torque(Vec3& m_r, const Vec3& w_rel, const Vec3& n, double k_t, double r_eff_m,
                                  double rolling_friction, double normal_force_abs, double dt) {
   const Vec3 w_t = w_rel - dot(w_rel, n) * n;
   m_r += (k_t * r_eff_m * r_eff_m * dt) * w_t;

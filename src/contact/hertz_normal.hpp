@@ -3,17 +3,18 @@
 //     k_n = (4/3) Y* sqrt(R* delta),   F_n,el = k_n delta = (4/3) Y* sqrt(R*) delta^(3/2)
 // Elastic energy stored in the contact: U = (8/15) Y* sqrt(R*) delta^(5/2).
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 namespace biodem::contact {
 
-inline double hertz_normal_stiffness(double y_eff_pa, double r_eff_m, double overlap_m) {
+BIODEM_HD inline double hertz_normal_stiffness(double y_eff_pa, double r_eff_m, double overlap_m) {
   return 4.0 / 3.0 * y_eff_pa * std::sqrt(r_eff_m * overlap_m);
 }
-inline double hertz_elastic_force(double y_eff_pa, double r_eff_m, double overlap_m) {
+BIODEM_HD inline double hertz_elastic_force(double y_eff_pa, double r_eff_m, double overlap_m) {
   return hertz_normal_stiffness(y_eff_pa, r_eff_m, overlap_m) * overlap_m;
 }
-inline double hertz_elastic_energy(double y_eff_pa, double r_eff_m, double overlap_m) {
+BIODEM_HD inline double hertz_elastic_energy(double y_eff_pa, double r_eff_m, double overlap_m) {
   return 8.0 / 15.0 * y_eff_pa * std::sqrt(r_eff_m) * std::pow(overlap_m, 2.5);
 }
 

@@ -6,13 +6,14 @@
 //     else                     F_t = -k_t xi - gamma_t v_t
 // F_n is the scalar normal force after damping and cohesion (the reference formulation).
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 #include "core/vec3.hpp"
 
 namespace biodem::contact {
 
-inline double mindlin_tangential_stiffness(double g_eff_pa, double r_eff_m, double overlap_m) {
+BIODEM_HD inline double mindlin_tangential_stiffness(double g_eff_pa, double r_eff_m, double overlap_m) {
   return 8.0 * g_eff_pa * std::sqrt(r_eff_m * overlap_m);
 }
 
@@ -22,7 +23,7 @@ struct TangentialResult {
 };
 
 /// Updates the history `xi` in place and returns the tangential force on i.
-inline TangentialResult mindlin_tangential_force(Vec3& xi, const Vec3& v_t, const Vec3& n, double k_t,
+BIODEM_HD inline TangentialResult mindlin_tangential_force(Vec3& xi, const Vec3& v_t, const Vec3& n, double k_t,
                                                  double gamma_t, double friction, double normal_force_abs,
                                                  double dt) {
   xi += v_t * dt;

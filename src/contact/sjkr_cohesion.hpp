@@ -7,16 +7,17 @@
 //   sphere-wall (distance d from centre to wall):  A = pi (R_i^2 - d^2)
 // It is subtracted from the scalar normal force before friction and rolling limits are taken.
 #pragma once
+#include "core/hd.hpp"
 #include <numbers>
 
 namespace biodem::contact {
 
-inline double sjkr_area_sphere_sphere(double r_i, double r_j, double d) {
+BIODEM_HD inline double sjkr_area_sphere_sphere(double r_i, double r_j, double d) {
   return std::numbers::pi * (r_i + r_j - d) * (d + r_i - r_j) * (d - r_i + r_j) * (d + r_i + r_j) / (4.0 * d * d);
 }
-inline double sjkr_area_sphere_wall(double r_i, double d) { return std::numbers::pi * (r_i * r_i - d * d); }
+BIODEM_HD inline double sjkr_area_sphere_wall(double r_i, double d) { return std::numbers::pi * (r_i * r_i - d * d); }
 /// Magnitude of the attractive force (to be subtracted from the repulsive normal force).
-inline double sjkr_force(double cohesion_energy_density_j_m3, double area_m2) {
+BIODEM_HD inline double sjkr_force(double cohesion_energy_density_j_m3, double area_m2) {
   return cohesion_energy_density_j_m3 * area_m2;
 }
 

@@ -1,5 +1,6 @@
 // Unit quaternion (w, x, y, z) for rigid-body orientation: body frame -> lab frame.
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 #include "core/mat3.hpp"
 #include "core/vec3.hpp"
@@ -15,12 +16,12 @@ constexpr Quat operator*(const Quat& a, const Quat& b) {
           a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
 }
 constexpr Quat conj(const Quat& q) { return {q.w, -q.x, -q.y, -q.z}; }
-inline Quat normalized(const Quat& q) {
+BIODEM_HD inline Quat normalized(const Quat& q) {
   const double n = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
   return {q.w / n, q.x / n, q.y / n, q.z / n};
 }
 /// Rotation of angle |v|*... : quaternion for a rotation by `angle_rad` about unit `axis`.
-inline Quat axis_angle(const Vec3& axis, double angle_rad) {
+BIODEM_HD inline Quat axis_angle(const Vec3& axis, double angle_rad) {
   const double h = 0.5 * angle_rad, s = std::sin(h);
   return {std::cos(h), axis.x * s, axis.y * s, axis.z * s};
 }
@@ -35,14 +36,14 @@ constexpr Mat3 to_matrix(const Quat& q) {
          2 * (xz - wy),     2 * (yz + wx),     ww - xx - yy + zz};
   return r;
 }
-inline Vec3 rotate(const Quat& q, const Vec3& v) { return to_matrix(q) * v; }
-inline Vec3 rotate_inverse(const Quat& q, const Vec3& v) { return transpose(to_matrix(q)) * v; }
+BIODEM_HD inline Vec3 rotate(const Quat& q, const Vec3& v) { return to_matrix(q) * v; }
+BIODEM_HD inline Vec3 rotate_inverse(const Quat& q, const Vec3& v) { return transpose(to_matrix(q)) * v; }
 
 }  // namespace biodem
 
 namespace biodem {
 /// Quaternion of a proper rotation matrix (Shepperd's method, numerically stable branch choice).
-inline Quat from_matrix(const Mat3& r) {
+BIODEM_HD inline Quat from_matrix(const Mat3& r) {
   const double tr = r(0, 0) + r(1, 1) + r(2, 2);
   Quat q;
   if (tr > 0.0) {

@@ -1,5 +1,6 @@
 // Small fixed-size vector used throughout the engine (SI units by convention of the caller).
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 namespace biodem {
@@ -32,8 +33,8 @@ constexpr Vec3 cross(const Vec3& a, const Vec3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 constexpr double norm2(const Vec3& a) { return dot(a, a); }
-inline double norm(const Vec3& a) { return std::sqrt(norm2(a)); }
-inline Vec3 normalized(const Vec3& a) {
+BIODEM_HD inline double norm(const Vec3& a) { return std::sqrt(norm2(a)); }
+BIODEM_HD inline Vec3 normalized(const Vec3& a) {
   const double n = norm(a);
   return n > 0.0 ? a / n : Vec3{};
 }

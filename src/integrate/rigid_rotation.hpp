@@ -6,6 +6,7 @@
 // angular momentum pi by -theta, so the lab angular momentum is conserved to round-off and the
 // energy error stays bounded (second order, time reversible).
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 #include "core/quat.hpp"
@@ -15,7 +16,7 @@ namespace biodem::integrate {
 
 /// Advances orientation `q` (body -> lab) by `h` for lab angular momentum `l` and principal
 /// moments `inertia`. Returns the new lab angular velocity.
-inline Vec3 free_rotation_step(Quat& q, const Vec3& l, const Vec3& inertia, double h) {
+BIODEM_HD inline Vec3 free_rotation_step(Quat& q, const Vec3& l, const Vec3& inertia, double h) {
   Vec3 pi = rotate_inverse(q, l);
   auto sub = [&](int k, double hk) {
     const double theta = hk * pi[k] / inertia[k];
@@ -39,11 +40,11 @@ inline Vec3 free_rotation_step(Quat& q, const Vec3& l, const Vec3& inertia, doub
 }
 
 /// Lab angular velocity from lab angular momentum.
-inline Vec3 angular_velocity_from_momentum(const Quat& q, const Vec3& l, const Vec3& inertia) {
+BIODEM_HD inline Vec3 angular_velocity_from_momentum(const Quat& q, const Vec3& l, const Vec3& inertia) {
   const Vec3 pi = rotate_inverse(q, l);
   return rotate(q, Vec3{pi.x / inertia.x, pi.y / inertia.y, pi.z / inertia.z});
 }
-inline Vec3 angular_momentum_from_velocity(const Quat& q, const Vec3& w, const Vec3& inertia) {
+BIODEM_HD inline Vec3 angular_momentum_from_velocity(const Quat& q, const Vec3& w, const Vec3& inertia) {
   const Vec3 wb = rotate_inverse(q, w);
   return rotate(q, Vec3{wb.x * inertia.x, wb.y * inertia.y, wb.z * inertia.z});
 }

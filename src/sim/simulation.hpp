@@ -70,6 +70,12 @@ class Simulation {
   std::uint64_t step_count() const { return steps_; }
   void set_step_count(std::uint64_t n) { steps_ = n; }
   double dt_s() const { return dt_s_; }
+  Vec3 gravity_m_s2() const { return gravity_; }
+  /// True when body forces are those of the current state (after refresh(), a step or a restore).
+  bool forces_current() const { return forces_valid_ && list_valid_; }
+  /// The GPU engine downloaded new body states: sphere arrays are recomputed from them on access.
+  void mark_spheres_stale() { spheres_stale_ = true; }
+  void set_contact_count(std::size_t n) { contacts_ = n; }
   const state::SphereStore& spheres() const {
     if (spheres_stale_) const_cast<Simulation*>(this)->update_spheres_from_bodies();
     return spheres_;

@@ -5,6 +5,7 @@
 // Sign conventions: the normal n points from the wall into the particle side; the overlap is
 // delta = r - gap, positive in contact; the wall surface point is centre - gap * n.
 #pragma once
+#include "core/hd.hpp"
 #include <cmath>
 
 #include "core/vec3.hpp"
@@ -31,7 +32,7 @@ struct WallHit {
 /// Distance of a sphere centre to the wall surface and the contact normal. For the inside of a
 /// cylinder the particle side is the inside; for a disc, points whose projection falls outside
 /// the disc radius do not touch (the rim is not modelled).
-inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
+BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
   WallHit h;
   switch (w.kind) {
     case Kind::Plane:
@@ -62,7 +63,7 @@ inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
 }
 
 /// Surface velocity of the wall at point p: omega x (p - axis point), omega along the symmetry axis.
-inline Vec3 wall_velocity(const WallGeometry& w, const Vec3& p) {
+BIODEM_HD inline Vec3 wall_velocity(const WallGeometry& w, const Vec3& p) {
   if (w.angular_velocity_rad_s == 0.0) return {};
   return cross(w.angular_velocity_rad_s * w.normal, p - w.point_m);
 }

@@ -1,0 +1,33 @@
+#include "gpu/device_engine.hpp"
+
+#include "core/error.hpp"
+
+namespace biodem::gpu {
+
+namespace host_threads {
+std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host);
+}
+#ifdef BIODEM_WITH_CUDA
+namespace cuda_device {
+std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host);
+}
+#endif
+
+bool cuda_built() {
+#ifdef BIODEM_WITH_CUDA
+  return true;
+#else
+  return false;
+#endif
+}
+
+std::unique_ptr<DeviceEngine> make_device_engine(Backend backend, sim::Simulation& host) {
+  if (backend == Backend::HostThreads) return host_threads::make_engine(host);
+#ifdef BIODEM_WITH_CUDA
+  return cuda_device::make_engine(host);
+#else
+  throw Error("--device gpu: this biodem was built without the CUDA engine (no CUDA compiler at configure time; see docs/gpu.md)");
+#endif
+}
+
+}  // namespace biodem::gpu

@@ -1,0 +1,60 @@
+// The GPU engine (docs/gpu.md): the time step of sim::Simulation - the same force laws (the
+// BIODEM_HD headers in src/contact, src/walls, src/integrate), the same walls, periodic axis and
+// clumps - executed as data-parallel kernels over a copy of the state held on the device.
+//
+// The host Simulation stays the owner of the run: it is built from the case, inserts particles,
+// writes outputs and checkpoints. The engine uploads its state (bodies, spheres, contact history
+// of pairs and walls), steps on the device, and downloads the state into the host Simulation
+// (positions and velocities for samples; everything, contact history included, for checkpoints
+// and between insertion waves), so a checkpoint has one format whatever device wrote it.
+//
+// Backends: `Cuda` (built when CMake finds a CUDA compiler; kernels launched through Thrust's
+// CUDA system) and `HostThreads` (the same kernel functors launched through Thrust's OpenMP
+// system on CPU threads: the tests run the GPU engine's physics on every commit without a GPU).
+//
+// Results do not depend on the storage order of spheres or on when the neighbour list is
+// rebuilt: every sphere sums its pair contacts in the order of its neighbours' stable ids, then
+// its walls in wall order, and every pair is evaluated from the side of its lower stable id by
+// both spheres' threads (identical arithmetic, so the two copies of the pair's history in the
+// full neighbour list stay bit-identical and the two forces are exact opposites). A run resumed
+// on the same device and build therefore continues bit for bit.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "sim/simulation.hpp"
+
+namespace biodem::gpu {
+
+enum class Backend { Cuda, HostThreads };
+
+/// True when this biodem was built with the CUDA engine.
+bool cuda_built();
+
+class DeviceEngine {
+ public:
+  virtual ~DeviceEngine() = default;
+  /// Copies the complete state of `host` to the device (after set-up, insertion or a restore).
+  virtual void upload() = 0;
+  /// Makes the host Simulation current: bodies (and, from them, spheres), forces, clock, contact
+  /// count; with `history`, also a fresh host neighbour list carrying the device's pair history
+  /// and the wall history, so that the host can checkpoint, insert or continue on the CPU.
+  virtual void download(bool history) = 0;
+  /// One velocity-Verlet step on the device; advances the host's clock (time and step count).
+  virtual void step() = 0;
+  /// Total kinetic energy of all bodies (one device reduction).
+  virtual double kinetic_energy_j() = 0;
+  /// Re-reads the host walls (their prescribed angular velocities change with the drum phases).
+  virtual void sync_walls() = 0;
+  /// Device description for run.log ("NVIDIA H100 80GB HBM3 (sm_90, CUDA)").
+  virtual std::string device_name() const = 0;
+  /// Neighbour-list builds on the device so far.
+  virtual std::uint64_t list_builds() const = 0;
+};
+
+/// Creates an engine on `backend` bound to `host`. Throws biodem::Error with one line when the
+/// backend is not built or no GPU is present.
+std::unique_ptr<DeviceEngine> make_device_engine(Backend backend, sim::Simulation& host);
+
+}  // namespace biodem::gpu

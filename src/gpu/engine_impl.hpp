@@ -1,0 +1,498 @@
+// The GPU engine's host side, written once over a Thrust system: included by
+// device_engine_cuda.cu (Thrust's CUDA system, compiled by nvcc) and by
+// device_engine_host.cpp (Thrust's OpenMP system, compiled by g++), each with its own
+// BIODEM_GPU_NS and System policy. See device_engine.hpp for the design.
+#pragma once
+#include <thrust/binary_search.h>
+#include <thrust/copy.h>
+#include <thrust/count.h>
+#include <thrust/find.h>
+#include <thrust/for_each.h>
+#include <thrust/functional.h>
+#include <thrust/iterator/counting_iterator.h>
+#include <thrust/reduce.h>
+#include <thrust/sequence.h>
+#include <thrust/sort.h>
+#include <thrust/transform_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "gpu/device_engine.hpp"
+#include "gpu/kernels.hpp"
+
+namespace biodem::gpu::BIODEM_GPU_NS {
+
+template <class T>
+T* raw(typename System::template vector<T>& v) {
+  return thrust::raw_pointer_cast(v.data());
+}
+
+/// Most walls a sphere is tested against each step (the drum has three).
+inline constexpr std::size_t kMaxDeviceWalls = 16;
+
+class Engine final : public DeviceEngine {
+ public:
+  template <class T>
+  using vec = typename System::template vector<T>;
+
+  Engine(sim::Simulation& host, std::string name) : host_(host), name_(std::move(name)) {}
+
+  std::string device_name() const override { return name_; }
+  std::uint64_t list_builds() const override { return builds_; }
+
+  void upload() override;
+  void download(bool history) override;
+  void step() override;
+  double kinetic_energy_j() override;
+  void sync_walls() override;
+
+ private:
+  BodyArrays body_arrays() {
+    return {raw<Vec3>(b_pos_), raw<Vec3>(b_vel_), raw<Vec3>(b_omega_), raw<Vec3>(b_l_), raw<Vec3>(b_force_),
+            raw<Vec3>(b_torque_), raw<Vec3>(b_inertia_), raw<Quat>(b_q_), raw<double>(b_mass_),
+            raw<std::uint32_t>(b_first_), raw<std::uint32_t>(b_count_)};
+  }
+  SphereArrays sphere_arrays() {
+    return {raw<Vec3>(s_pos_),    raw<Vec3>(s_vel_),    raw<Vec3>(s_omega_),       raw<Vec3>(s_offset_),
+            raw<Vec3>(s_force_),  raw<Vec3>(s_torque_), raw<Vec3>(s_built_at_),    raw<double>(s_radius_),
+            raw<double>(s_bmass_), raw<std::uint32_t>(s_body_), raw<std::uint32_t>(s_material_),
+            raw<std::uint32_t>(s_sid_), raw<std::uint32_t>(s_contacts_)};
+  }
+  struct Rows {
+    vec<std::uint32_t> j;
+    vec<std::int32_t> image;
+    vec<std::uint8_t> touching;
+    vec<contact::ContactHistory> history;
+    vec<std::uint32_t> length;
+    std::uint32_t cap = 0;
+    void resize(std::size_t n, std::uint32_t c) {
+      cap = c;
+      j.assign(n * c, 0u);
+      image.assign(n * c, 0);
+      touching.assign(n * c, 0);
+      history.assign(n * c, contact::ContactHistory{});
+      length.assign(n, 0u);
+    }
+    RowArrays arrays() {
+      return {raw<std::uint32_t>(j), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
+              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap};
+    }
+  };
+
+  void build_list();
+  void compute_forces();
+  void check_finite();
+  std::uint32_t nb() const { return static_cast<std::uint32_t>(b_mass_.size()); }
+  std::uint32_t ns() const { return static_cast<std::uint32_t>(s_radius_.size()); }
+  auto exec() const { return System::exec(); }
+  template <class F>
+  void launch(std::uint32_t n, F f) {
+    if (n) thrust::for_each_n(exec(), thrust::counting_iterator<std::uint32_t>(0), n, f);
+  }
+
+  sim::Simulation& host_;
+  std::string name_;
+  // bodies
+  vec<Vec3> b_pos_, b_vel_, b_omega_, b_l_, b_force_, b_torque_, b_inertia_;
+  vec<Quat> b_q_;
+  vec<double> b_mass_;
+  vec<std::uint32_t> b_first_, b_count_;
+  // spheres
+  vec<Vec3> s_pos_, s_vel_, s_omega_, s_offset_, s_force_, s_torque_, s_built_at_;
+  vec<double> s_radius_, s_bmass_;
+  vec<std::uint32_t> s_body_, s_material_, s_sid_, s_contacts_;
+  std::vector<std::uint32_t> sid_host_;
+  // neighbour list: current and previous rows (history carried from one to the other)
+  Rows rows_, old_rows_;
+  vec<std::uint32_t> cell_key_, sorted_, cell_start_;
+  vec<Int3> wrap_, cell_;
+  // walls and pair table
+  vec<DeviceWall> walls_;
+  vec<contact::ContactHistory> wall_history_;
+  vec<std::uint8_t> wall_touching_;
+  vec<contact::PairParams> pairs_;
+  std::uint32_t n_walls_ = 0, n_materials_ = 0;
+  bool cohesion_ = false, rolling_ = false;
+  neighbor::Domain domain_;
+  double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
+  Vec3 gravity_;
+  std::uint64_t builds_ = 0;
+};
+
+template <class D, class H>
+void to_device(D& d, const H& h) {
+  d.assign(h.begin(), h.end());
+}
+template <class H, class D>
+void to_host(H& h, const D& d) {
+  h.resize(d.size());
+  thrust::copy(d.begin(), d.end(), h.begin());
+}
+
+inline void Engine::sync_walls() {
+  const auto& w = host_.walls();
+  std::vector<DeviceWall> dw(w.size());
+  for (std::size_t k = 0; k < w.size(); ++k) dw[k] = {w[k].geometry, w[k].material};
+  to_device(walls_, dw);
+}
+
+inline void Engine::upload() {
+  const auto& pt = host_.pair_table();
+  if (host_.walls().size() > kMaxDeviceWalls)
+    throw Error("--device gpu: the scene has " + std::to_string(host_.walls().size()) +
+                " walls; the GPU engine tests every wall for every sphere and takes at most " +
+                std::to_string(kMaxDeviceWalls));
+  const auto& b = host_.bodies();
+  const auto& s = host_.spheres();
+  dt_ = host_.dt_s();
+  gravity_ = host_.gravity_m_s2();
+  domain_ = host_.domain();
+  skin_ = host_.skin_m();
+  if (skin_ < 0.0) {  // not yet resolved by a host refresh: the same default (a quarter of the smallest diameter)
+    double rmin = 1e300;
+    for (double r : s.radius_m) rmin = std::min(rmin, r);
+    skin_ = s.size() ? 0.5 * rmin : 1e-3;
+  }
+  r_max_ = 0.0;
+  for (double r : s.radius_m) r_max_ = std::max(r_max_, r);
+  cohesion_ = pt.any_cohesion();
+  rolling_ = pt.any_rolling();
+  n_materials_ = static_cast<std::uint32_t>(pt.materials());
+  std::vector<contact::PairParams> table(n_materials_ * n_materials_);
+  for (std::uint32_t a = 0; a < n_materials_; ++a)
+    for (std::uint32_t c = 0; c < n_materials_; ++c) table[a * n_materials_ + c] = pt(a, c);
+  to_device(pairs_, table);
+  sync_walls();
+  n_walls_ = static_cast<std::uint32_t>(host_.walls().size());
+
+  to_device(b_pos_, b.position_m);
+  to_device(b_vel_, b.velocity_m_s);
+  to_device(b_omega_, b.angular_velocity_rad_s);
+  to_device(b_l_, b.angular_momentum_kg_m2_s);
+  to_device(b_force_, b.force_n);
+  to_device(b_torque_, b.torque_n_m);
+  to_device(b_inertia_, b.inertia_kg_m2);
+  to_device(b_q_, b.orientation);
+  to_device(b_mass_, b.mass_kg);
+  to_device(b_first_, b.first_sphere);
+  to_device(b_count_, b.sphere_count);
+
+  const std::size_t n = s.size();
+  // Stable sphere ids: spheres numbered body by body in stable body id order.
+  {
+    std::vector<std::uint32_t> order(b.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::sort(order.begin(), order.end(), [&](std::uint32_t x, std::uint32_t y) { return b.id[x] < b.id[y]; });
+    sid_host_.assign(n, 0);
+    std::uint32_t next = 0;
+    for (std::uint32_t k : order)
+      for (std::uint32_t q = 0; q < b.sphere_count[k]; ++q) sid_host_[b.first_sphere[k] + q] = next++;
+  }
+  std::vector<std::uint32_t> body(s.body.begin(), s.body.end()), material(s.material.begin(), s.material.end());
+  to_device(s_pos_, s.position_m);
+  to_device(s_vel_, s.velocity_m_s);
+  to_device(s_omega_, s.angular_velocity_rad_s);
+  to_device(s_offset_, s.offset_body_m);
+  to_device(s_force_, s.force_n);
+  to_device(s_torque_, s.torque_n_m);
+  to_device(s_radius_, s.radius_m);
+  to_device(s_bmass_, s.body_mass_kg);
+  to_device(s_body_, body);
+  to_device(s_material_, material);
+  to_device(s_sid_, sid_host_);
+  s_contacts_.assign(n, 0u);
+  s_built_at_.assign(n, Vec3{});
+
+  // Contact history of touching pairs from the host list (entries (i, j), history from i's side),
+  // as "old rows" holding each pair in both spheres' rows, from the lower stable id's side.
+  const auto& L = host_.neighbor_list();
+  std::vector<std::vector<std::pair<std::uint32_t, contact::ContactHistory>>> per(n);
+  if (L.row_start.size() >= 2) {
+    const std::size_t rows_known = std::min(n, L.row_start.size() - 1);
+    for (std::size_t i = 0; i < rows_known; ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        if (!L.touching[k] || L.j[k] >= n) continue;
+        const std::uint32_t j = L.j[k];
+        contact::ContactHistory h = L.history[k];
+        if (sid_host_[i] > sid_host_[j]) {
+          h.xi = -h.xi;
+          h.m_r = -h.m_r;
+        }
+        per[i].emplace_back(j, h);
+        per[j].emplace_back(static_cast<std::uint32_t>(i), h);
+      }
+  }
+  std::size_t cap = 1;
+  for (auto& r : per) {
+    std::sort(r.begin(), r.end(), [&](const auto& x, const auto& y) { return sid_host_[x.first] < sid_host_[y.first]; });
+    cap = std::max(cap, r.size());
+  }
+  {
+    std::vector<std::uint32_t> j(n * cap, 0), len(n, 0);
+    std::vector<std::uint8_t> touch(n * cap, 0);
+    std::vector<contact::ContactHistory> hist(n * cap);
+    for (std::size_t i = 0; i < n; ++i) {
+      len[i] = static_cast<std::uint32_t>(per[i].size());
+      for (std::size_t q = 0; q < per[i].size(); ++q) {
+        j[q * n + i] = per[i][q].first;
+        hist[q * n + i] = per[i][q].second;
+        touch[q * n + i] = 1;
+      }
+    }
+    // Held as the current rows: build_list() makes them the old rows it carries history from.
+    rows_.cap = static_cast<std::uint32_t>(cap);
+    to_device(rows_.j, j);
+    to_device(rows_.length, len);
+    to_device(rows_.touching, touch);
+    to_device(rows_.history, hist);
+    rows_.image.assign(n * cap, 0);
+  }
+
+  // Wall history: host [sphere * n_walls + wall] -> device [wall * n + sphere].
+  {
+    const auto& wh = host_.wall_history();
+    const auto& wt = host_.wall_touching();
+    std::vector<contact::ContactHistory> h(n * n_walls_);
+    std::vector<std::uint8_t> t(n * n_walls_, 0);
+    for (std::size_t i = 0; i < n && (i + 1) * n_walls_ <= wh.size(); ++i)
+      for (std::size_t w = 0; w < n_walls_; ++w) {
+        h[w * n + i] = wh[i * n_walls_ + w];
+        t[w * n + i] = wt[i * n_walls_ + w];
+      }
+    to_device(wall_history_, h);
+    to_device(wall_touching_, t);
+  }
+
+  launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
+  build_list();
+  if (!host_.forces_current()) {
+    // Set-up or after an insertion: forces for the first half kick, without advancing the
+    // contact history (this is not a time step), as the CPU engine's refresh().
+    const auto hist = rows_.history;
+    const auto touch = rows_.touching;
+    const auto whist = wall_history_;
+    const auto wtouch = wall_touching_;
+    compute_forces();
+    // Keep the history of pairs that were touching before; new contacts start from zero.
+    std::vector<contact::ContactHistory> h0, h1, w0, w1;
+    std::vector<std::uint8_t> t0, t1, u0, u1;
+    to_host(h0, hist);
+    to_host(t0, touch);
+    to_host(h1, rows_.history);
+    to_host(t1, rows_.touching);
+    for (std::size_t k = 0; k < h1.size(); ++k)
+      if (t1[k]) h1[k] = t0[k] ? h0[k] : contact::ContactHistory{};
+    to_device(rows_.history, h1);
+    to_host(w0, whist);
+    to_host(u0, wtouch);
+    to_host(w1, wall_history_);
+    to_host(u1, wall_touching_);
+    for (std::size_t k = 0; k < w1.size(); ++k)
+      if (u1[k]) w1[k] = u0[k] ? w0[k] : contact::ContactHistory{};
+    to_device(wall_history_, w1);
+    launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false});
+  }
+}
+
+inline void Engine::check_finite() {
+  auto it = thrust::find_if(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                            thrust::counting_iterator<std::uint32_t>(ns()), IsNotFinite{sphere_arrays()});
+  if (*it != ns()) {
+    std::vector<std::uint32_t> body;
+    to_host(body, s_body_);
+    throw Error("sphere " + std::to_string(*it) + " (of body " + std::to_string(body[*it]) +
+                ") has a non-finite position at t = " + std::to_string(host_.time_s()) +
+                " s: the simulation became unstable (is [run].dt_s too large?)");
+  }
+}
+
+inline void Engine::build_list() {
+  const std::uint32_t n = ns();
+  if (n == 0) return;
+  check_finite();
+  const double cutoff = 2.0 * r_max_ + skin_;
+  const Box box = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                           thrust::counting_iterator<std::uint32_t>(n), BoxOfSphere{sphere_arrays()},
+                                           Box{}, BoxUnion{});
+  GridParams g;
+  const Vec3 len = domain_.length_m();
+  double cell = cutoff;
+  for (int iter = 0; iter < 64; ++iter) {  // at most ~4 cells per sphere (sparse scenes), as the CPU list
+    double cells = 1.0;
+    for (int k = 0; k < 3; ++k) {
+      const double extent = domain_.periodic[k] ? len[k] : box.hi[k] - box.lo[k];
+      cells *= std::max(1.0, std::floor(extent / cell));
+    }
+    if (cells <= 4.0 * static_cast<double>(n) + 27.0) break;
+    cell *= 1.26;
+  }
+  g.cell = cell;
+  int nn[3];
+  for (int k = 0; k < 3; ++k) {
+    g.periodic[k] = domain_.periodic[k];
+    if (domain_.periodic[k]) {
+      g.lo[k] = domain_.lo_m[k];
+      g.period[k] = len[k];
+      nn[k] = static_cast<int>(std::floor(len[k] / cell));
+      if (nn[k] < 3)
+        throw Error("periodic length along axis " + std::to_string(k) +
+                    " is shorter than 3 neighbour cells (largest sphere diameter + skin)");
+    } else {
+      g.lo[k] = box.lo[k];
+      nn[k] = std::max(1, static_cast<int>(std::floor((box.hi[k] - box.lo[k]) / cell)) + 1);
+    }
+  }
+  g.n = Int3{nn[0], nn[1], nn[2]};
+  const std::size_t ncell = static_cast<std::size_t>(nn[0]) * nn[1] * nn[2];
+
+  cell_key_.resize(n);
+  wrap_.resize(n);
+  cell_.resize(n);
+  sorted_.resize(n);
+  launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
+  thrust::sequence(exec(), sorted_.begin(), sorted_.end());
+  vec<std::uint32_t> keys = cell_key_;
+  thrust::stable_sort_by_key(exec(), keys.begin(), keys.end(), sorted_.begin());
+  cell_start_.resize(ncell + 1);
+  thrust::lower_bound(exec(), keys.begin(), keys.end(), thrust::counting_iterator<std::uint32_t>(0),
+                      thrust::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(ncell + 1)),
+                      cell_start_.begin());
+
+  // The current rows become the old rows; build new ones, enlarging them until every row fits.
+  std::swap(rows_, old_rows_);
+  std::uint32_t cap = std::max<std::uint32_t>(rows_.cap, 16);
+  for (;;) {
+    if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap);
+    launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_),
+                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_});
+    const std::uint32_t longest =
+        thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
+    if (longest <= cap) break;
+    cap = longest + longest / 4 + 1;
+  }
+  thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
+  ++builds_;
+}
+
+inline void Engine::compute_forces() {
+  auto run = [&](auto f) {
+    f.s = sphere_arrays();
+    f.rows = rows_.arrays();
+    f.walls = raw<DeviceWall>(walls_);
+    f.wall_history = raw<contact::ContactHistory>(wall_history_);
+    f.wall_touching = raw<std::uint8_t>(wall_touching_);
+    f.n_walls = n_walls_;
+    f.pairs = raw<contact::PairParams>(pairs_);
+    f.n_materials = n_materials_;
+    f.period = domain_.length_m();
+    f.periodic = domain_.any_periodic();
+    f.n = ns();
+    f.dt = dt_;
+    launch(ns(), f);
+  };
+  if (cohesion_) {
+    if (rolling_) run(Forces<true, true>{});
+    else run(Forces<true, false>{});
+  } else {
+    if (rolling_) run(Forces<false, true>{});
+    else run(Forces<false, false>{});
+  }
+}
+
+inline void Engine::step() {
+  const double h = 0.5 * dt_;
+  launch(nb(), KickDrift{body_arrays(), h, dt_});
+  launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
+  const int moved = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                             thrust::counting_iterator<std::uint32_t>(ns()),
+                                             MovedTooFar{sphere_arrays(), 0.25 * skin_ * skin_}, 0,
+                                             thrust::maximum<int>());
+  if (moved) build_list();
+  compute_forces();
+  launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, h, true});
+  host_.set_time_s(host_.time_s() + dt_);
+  host_.set_step_count(host_.step_count() + 1);
+}
+
+inline double Engine::kinetic_energy_j() {
+  return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                  thrust::counting_iterator<std::uint32_t>(nb()), BodyKineticEnergy{body_arrays()},
+                                  0.0, thrust::plus<double>());
+}
+
+inline void Engine::download(bool history) {
+  auto& b = host_.bodies_mut();
+  to_host(b.position_m, b_pos_);
+  to_host(b.velocity_m_s, b_vel_);
+  to_host(b.angular_velocity_rad_s, b_omega_);
+  to_host(b.angular_momentum_kg_m2_s, b_l_);
+  to_host(b.orientation, b_q_);
+  to_host(b.force_n, b_force_);
+  to_host(b.torque_n_m, b_torque_);
+  host_.mark_spheres_stale();
+  auto& s = host_.spheres_mut();  // positions and velocities recomputed from the bodies (same formula)
+  to_host(s.force_n, s_force_);
+  to_host(s.torque_n_m, s_torque_);
+  host_.set_contact_count(thrust::reduce(exec(), s_contacts_.begin(), s_contacts_.end(), std::size_t{0}));
+  if (!history) return;
+
+  // A fresh host list from the current positions, with the device's pair and wall history.
+  const std::size_t n = ns();
+  std::vector<std::uint32_t> rj, rlen;
+  std::vector<std::uint8_t> rt;
+  std::vector<contact::ContactHistory> rh;
+  to_host(rj, rows_.j);
+  to_host(rlen, rows_.length);
+  to_host(rt, rows_.touching);
+  to_host(rh, rows_.history);
+  auto& L = host_.neighbor_list_mut();
+  L.configure(domain_, skin_);
+  L.build(s);
+  std::fill(L.touching.begin(), L.touching.end(), std::uint8_t{0});
+  std::fill(L.history.begin(), L.history.end(), contact::ContactHistory{});
+  std::size_t found = 0, touching = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::uint32_t q = 0; q < rlen[i]; ++q)
+      if (rt[q * n + i] && sid_host_[i] < sid_host_[rj[q * n + i]]) ++touching;
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      for (std::uint32_t q = 0; q < rlen[i]; ++q) {
+        if (rj[q * n + i] != j) continue;
+        if (rt[q * n + i]) {
+          contact::ContactHistory h = rh[q * n + i];
+          if (sid_host_[i] > sid_host_[j]) {
+            h.xi = -h.xi;
+            h.m_r = -h.m_r;
+          }
+          L.history[k] = h;
+          L.touching[k] = 1;
+          ++found;
+        }
+        break;
+      }
+    }
+  }
+  if (found != touching)
+    throw Error("internal: " + std::to_string(touching - found) +
+                " touching pairs of the device list are missing from the host list");
+  std::vector<contact::ContactHistory> wh;
+  std::vector<std::uint8_t> wt;
+  to_host(wh, wall_history_);
+  to_host(wt, wall_touching_);
+  auto& hwh = host_.wall_history();
+  auto& hwt = host_.wall_touching();
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t w = 0; w < n_walls_; ++w) {
+      hwh[i * n_walls_ + w] = wh[w * n + i];
+      hwt[i * n_walls_ + w] = wt[w * n + i];
+    }
+  host_.restore_after_checkpoint(host_.time_s(), host_.step_count(), host_.drum_rotating(), skin_, L.built_at(),
+                                 L.builds());
+}
+
+}  // namespace biodem::gpu::BIODEM_GPU_NS

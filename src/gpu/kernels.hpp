@@ -1,0 +1,401 @@
+// The GPU engine's kernels: functors over one index (a body, a sphere), launched through Thrust
+// (thrust::for_each_n over a counting iterator). The same functors compile with nvcc for the GPU
+// and with g++ for CPU threads (Thrust's OpenMP system), so the tests execute this exact code.
+// Every functor reads and writes flat arrays through raw pointers; no atomics anywhere.
+//
+// This header lives in a namespace chosen by the including translation unit
+// (BIODEM_GPU_NS), so that the CUDA and the host-threads instantiations never share a symbol.
+#pragma once
+#include <cstdint>
+
+#include "contact/contact_model.hpp"
+#include "core/hd.hpp"
+#include "core/quat.hpp"
+#include "core/vec3.hpp"
+#include "integrate/rigid_rotation.hpp"
+#include "walls/wall_geometry.hpp"
+
+#ifndef BIODEM_GPU_NS
+#error "define BIODEM_GPU_NS before including gpu/kernels.hpp"
+#endif
+
+namespace biodem::gpu::BIODEM_GPU_NS {
+
+struct Int3 {
+  std::int32_t x = 0, y = 0, z = 0;
+};
+
+/// A wall as the kernels see it: geometry (with its current prescribed angular velocity) and material.
+struct DeviceWall {
+  walls::WallGeometry geometry;
+  std::uint32_t material = 0;
+};
+
+struct BodyArrays {
+  Vec3 *position, *velocity, *omega, *ang_momentum, *force, *torque, *inertia;
+  Quat* orientation;
+  double* mass;
+  std::uint32_t *first_sphere, *sphere_count;
+};
+
+struct SphereArrays {
+  Vec3 *position, *velocity, *omega, *offset, *force, *torque, *built_at;
+  double *radius, *body_mass;
+  std::uint32_t *body, *material, *sid, *contacts;
+};
+
+/// Fixed-width neighbour rows, column-major (entry q of sphere i at q * n + i) so that the threads
+/// of neighbouring spheres read neighbouring words. Each row is sorted by the neighbour's stable id.
+struct RowArrays {
+  std::uint32_t* j;
+  std::int32_t* image;  // periodic image shift from the row owner's side, packed int8 x3
+  std::uint8_t* touching;
+  contact::ContactHistory* history;  // from the side of the pair's lower stable id
+  std::uint32_t* length;
+  std::uint32_t cap;
+};
+
+BIODEM_HD inline std::int32_t pack_image(int sx, int sy, int sz) {
+  return static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sx))) |
+         (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sy))) << 8) |
+         (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sz))) << 16);
+}
+BIODEM_HD inline int image_component(std::int32_t c, int axis) {
+  return static_cast<int>(static_cast<std::int8_t>((c >> (8 * axis)) & 0xff));
+}
+
+/// First half kick and drift of every body (the CPU engine's step, parts 1-2, same arithmetic).
+struct KickDrift {
+  BodyArrays b;
+  double h, dt;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    const double inv_m = 1.0 / b.mass[k];
+    b.velocity[k] += (h * inv_m) * b.force[k];
+    b.position[k] += dt * b.velocity[k];
+    const Vec3 inertia = b.inertia[k];
+    if (b.sphere_count[k] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      b.omega[k] += (h / inertia.x) * b.torque[k];
+    } else {
+      b.ang_momentum[k] += h * b.torque[k];
+      b.omega[k] = integrate::free_rotation_step(b.orientation[k], b.ang_momentum[k], inertia, dt);
+    }
+  }
+};
+
+/// Sphere centres, velocities and spins from their bodies.
+struct SpheresFromBodies {
+  BodyArrays b;
+  SphereArrays s;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    const std::uint32_t k = s.body[i];
+    const Vec3 x = b.position[k], v = b.velocity[k], w = b.omega[k];
+    if (b.sphere_count[k] == 1 && s.offset[i] == Vec3{}) {
+      s.position[i] = x;
+      s.velocity[i] = v;
+      s.omega[i] = w;
+      return;
+    }
+    const Vec3 arm = to_matrix(b.orientation[k]) * s.offset[i];
+    s.position[i] = x + arm;
+    s.velocity[i] = v + cross(w, arm);
+    s.omega[i] = w;
+  }
+};
+
+/// 1 when sphere i moved more than half the skin since the last build (or is not finite).
+struct MovedTooFar {
+  SphereArrays s;
+  double limit2;
+  BIODEM_HD int operator()(std::uint32_t i) const {
+    return norm2(s.position[i] - s.built_at[i]) <= limit2 ? 0 : 1;
+  }
+};
+
+struct IsNotFinite {
+  SphereArrays s;
+  BIODEM_HD bool operator()(std::uint32_t i) const {
+    const Vec3 x = s.position[i];
+    return !(x.x - x.x == 0.0 && x.y - x.y == 0.0 && x.z - x.z == 0.0);
+  }
+};
+
+struct Box {
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+};
+struct BoxOfSphere {
+  SphereArrays s;
+  BIODEM_HD Box operator()(std::uint32_t i) const { return Box{s.position[i], s.position[i]}; }
+};
+struct BoxUnion {
+  BIODEM_HD Box operator()(const Box& a, const Box& c) const {
+    Box r;
+    r.lo = {a.lo.x < c.lo.x ? a.lo.x : c.lo.x, a.lo.y < c.lo.y ? a.lo.y : c.lo.y, a.lo.z < c.lo.z ? a.lo.z : c.lo.z};
+    r.hi = {a.hi.x > c.hi.x ? a.hi.x : c.hi.x, a.hi.y > c.hi.y ? a.hi.y : c.hi.y, a.hi.z > c.hi.z ? a.hi.z : c.hi.z};
+    return r;
+  }
+};
+
+/// The cell grid of one build (host-computed, same rules as the CPU list: cells at least the
+/// cut-off wide, periodic axes split into an integer number of cells).
+struct GridParams {
+  Int3 n{1, 1, 1};
+  Vec3 lo;
+  Vec3 period;  // domain length on periodic axes
+  double cell = 1.0;
+  bool periodic[3] = {false, false, false};
+};
+
+/// Cell of every sphere (and, on periodic axes, its image index floor((x - lo) / L)).
+struct CellOf {
+  SphereArrays s;
+  GridParams g;
+  std::uint32_t* cell_key;
+  Int3* wrap;
+  Int3* cell;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    int c[3], w[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) {
+      double x = s.position[i][k] - g.lo[k];
+      const int nk = k == 0 ? g.n.x : (k == 1 ? g.n.y : g.n.z);
+      if (g.periodic[k]) {
+        const double L = g.period[k];
+        const double wk = floor(x / L);
+        w[k] = static_cast<int>(wk);
+        x -= wk * L;
+        const int ck = static_cast<int>(x / (L / nk));
+        c[k] = ck < nk - 1 ? ck : nk - 1;
+      } else {
+        const double q = x / g.cell;
+        const int ck = q < 0.0 ? 0 : (q > static_cast<double>(nk - 1) ? nk - 1 : static_cast<int>(q));
+        c[k] = ck;
+      }
+    }
+    wrap[i] = Int3{w[0], w[1], w[2]};
+    cell[i] = Int3{c[0], c[1], c[2]};
+    cell_key[i] = static_cast<std::uint32_t>((c[2] * g.n.y + c[1]) * g.n.x + c[0]);
+  }
+};
+
+/// Builds sphere i's full neighbour row (all spheres of other bodies closer than r_i + r_j +
+/// skin, sorted by stable id) and carries the history of touching pairs over from the old row.
+/// A row longer than the capacity is counted (length > cap) and not stored; the host then
+/// enlarges the rows and builds again.
+struct BuildRows {
+  SphereArrays s;
+  GridParams g;
+  const std::uint32_t* sorted;      // sphere indices sorted by cell
+  const std::uint32_t* cell_start;  // per cell, first position in `sorted` (size ncell + 1)
+  const Int3* wrap;
+  const Int3* cell;
+  RowArrays old_rows, rows;
+  std::uint32_t n;
+  double skin;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    const Vec3 xi = s.position[i];
+    const double ri = s.radius[i];
+    const std::uint32_t bi = s.body[i];
+    const Int3 ci = cell[i], wi = wrap[i];
+    std::uint32_t len = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int d[3] = {dx, dy, dz};
+          const int c0[3] = {ci.x, ci.y, ci.z};
+          const int nn[3] = {g.n.x, g.n.y, g.n.z};
+          int c[3], cw[3] = {0, 0, 0};
+          bool skip = false;
+          for (int k = 0; k < 3; ++k) {
+            c[k] = c0[k] + d[k];
+            if (c[k] < 0 || c[k] >= nn[k]) {
+              if (!g.periodic[k]) {
+                skip = true;
+                break;
+              }
+              cw[k] = c[k] < 0 ? -1 : 1;
+              c[k] -= cw[k] * nn[k];
+            }
+          }
+          if (skip) continue;
+          const std::uint32_t key = static_cast<std::uint32_t>((c[2] * nn[1] + c[1]) * nn[0] + c[0]);
+          for (std::uint32_t p = cell_start[key]; p < cell_start[key + 1]; ++p) {
+            const std::uint32_t jj = sorted[p];
+            if (jj == i || s.body[jj] == bi) continue;
+            const Int3 wj = wrap[jj];
+            const int wiv[3] = {wi.x, wi.y, wi.z}, wjv[3] = {wj.x, wj.y, wj.z};
+            int sh[3] = {0, 0, 0};
+            Vec3 dv = xi - s.position[jj];
+            for (int k = 0; k < 3; ++k)
+              if (g.periodic[k]) {
+                sh[k] = wiv[k] - wjv[k] + cw[k];
+                dv[k] -= sh[k] * g.period[k];
+              }
+            const double cut = ri + s.radius[jj] + skin;
+            if (!(norm2(dv) < cut * cut)) continue;
+            if (len < rows.cap) {
+              // insertion into the row, sorted by stable id
+              const std::uint32_t sj = s.sid[jj];
+              std::uint32_t q = len;
+              while (q > 0 && s.sid[rows.j[(q - 1) * n + i]] > sj) {
+                rows.j[q * n + i] = rows.j[(q - 1) * n + i];
+                rows.image[q * n + i] = rows.image[(q - 1) * n + i];
+                --q;
+              }
+              rows.j[q * n + i] = jj;
+              rows.image[q * n + i] = pack_image(sh[0], sh[1], sh[2]);
+            }
+            ++len;
+          }
+        }
+    rows.length[i] = len;
+    if (len > rows.cap) return;
+    // History carried over: both rows are sorted by stable id, so one merge pass.
+    std::uint32_t o = 0;
+    const std::uint32_t o_end = old_rows.length[i];
+    for (std::uint32_t q = 0; q < len; ++q) {
+      const std::uint32_t jj = rows.j[q * n + i];
+      const std::uint32_t sj = s.sid[jj];
+      while (o < o_end && s.sid[old_rows.j[o * n + i]] < sj) ++o;
+      if (o < o_end && old_rows.j[o * n + i] == jj && old_rows.touching[o * n + i]) {
+        rows.history[q * n + i] = old_rows.history[o * n + i];
+        rows.touching[q * n + i] = 1;
+      } else {
+        rows.history[q * n + i] = contact::ContactHistory{};
+        rows.touching[q * n + i] = 0;
+      }
+    }
+  }
+};
+
+/// Contact forces on sphere a: its pair contacts in the order of the row (stable ids), then its
+/// walls in wall order. Each pair is evaluated from the side of its lower stable id, by both of
+/// its spheres' threads with identical arithmetic; each thread keeps its own copy of the pair's
+/// history, and the copies stay bit-identical.
+template <bool Cohesion, bool Rolling>
+struct Forces {
+  SphereArrays s;
+  RowArrays rows;
+  const DeviceWall* walls;
+  contact::ContactHistory* wall_history;  // [wall * n + sphere]
+  std::uint8_t* wall_touching;
+  std::uint32_t n_walls;
+  const contact::PairParams* pairs;
+  std::uint32_t n_materials;
+  Vec3 period;
+  bool periodic;
+  std::uint32_t n;
+  double dt;
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
+    for (std::uint32_t q = 0; q < len; ++q) {
+      const std::uint32_t k = q * n + a;
+      const std::uint32_t b = rows.j[k];
+      const bool a_low = sid_a < s.sid[b];
+      const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
+      Vec3 d = s.position[i] - s.position[j];
+      if (periodic) {
+        const std::int32_t c = rows.image[k];
+        const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
+        const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
+        const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
+        d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
+                  static_cast<double>(sz) * period.z};
+      }
+      const double ri = s.radius[i], rj = s.radius[j];
+      const double dist2 = norm2(d), rsum = ri + rj;
+      if (dist2 >= rsum * rsum) {
+        if (rows.touching[k]) {
+          rows.touching[k] = 0;
+          rows.history[k] = contact::ContactHistory{};
+        }
+        continue;
+      }
+      const double dist = sqrt(dist2);
+      const contact::ContactGeometry geo = contact::sphere_sphere_geometry(
+          d, dist, ri, rj, s.body_mass[i], s.body_mass[j], s.velocity[i], s.velocity[j], s.omega[i], s.omega[j]);
+      const contact::PairParams& p = pairs[s.material[i] * n_materials + s.material[j]];
+      const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt);
+      rows.touching[k] = 1;
+      if (a_low) {
+        f += out.force_i;
+        t += out.torque_i;
+        ++count;  // each pair counted once, by its lower-id sphere
+      } else {
+        f -= out.force_i;
+        t += out.torque_j;
+      }
+    }
+    const Vec3 xa = s.position[a];
+    const double ra = s.radius[a];
+    for (std::uint32_t w = 0; w < n_walls; ++w) {
+      const DeviceWall& ws = walls[w];
+      const walls::WallHit hit = walls::wall_hit(ws.geometry, xa, ra);
+      const std::uint32_t slot = w * n + a;
+      if (!hit.touching) {
+        if (wall_touching[slot]) {
+          wall_touching[slot] = 0;
+          wall_history[slot] = contact::ContactHistory{};
+        }
+        continue;
+      }
+      const Vec3 surface_point = xa - hit.gap_m * hit.normal;
+      const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
+      const Vec3 w_wall = ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+      const contact::ContactGeometry geo = contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, s.body_mass[a],
+                                                                         s.velocity[a], s.omega[a], v_wall, w_wall);
+      const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];
+      const double area = Cohesion ? contact::sjkr_area_sphere_wall(ra, hit.gap_m) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt);
+      wall_touching[slot] = 1;
+      f += out.force_i;
+      t += out.torque_i;
+      ++count;
+    }
+    s.force[a] = f;
+    s.torque[a] = t;
+    s.contacts[a] = count;
+  }
+};
+
+/// Body force (gravity plus its spheres' contact forces, in template order) and torque about the
+/// centre of mass; then, when `kick`, the second half kick (the CPU engine's step, parts 5-6).
+struct ReduceKick {
+  BodyArrays b;
+  SphereArrays s;
+  Vec3 gravity;
+  double h;
+  bool kick;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+    Vec3 f = b.mass[k] * gravity, t;
+    for (std::uint32_t i = s0; i < s0 + ns; ++i) {
+      f += s.force[i];
+      t += s.torque[i] + cross(s.position[i] - b.position[k], s.force[i]);
+    }
+    b.force[k] = f;
+    b.torque[k] = t;
+    if (!kick) return;
+    b.velocity[k] += (h / b.mass[k]) * f;
+    const Vec3 inertia = b.inertia[k];
+    if (ns == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      b.omega[k] += (h / inertia.x) * t;
+    } else {
+      b.ang_momentum[k] += h * t;
+      b.omega[k] = integrate::angular_velocity_from_momentum(b.orientation[k], b.ang_momentum[k], inertia);
+    }
+  }
+};
+
+/// Kinetic energy of body k (translation + rotation in the principal frame), as the CPU engine.
+struct BodyKineticEnergy {
+  BodyArrays b;
+  BIODEM_HD double operator()(std::uint32_t k) const {
+    const Vec3 wb = rotate_inverse(b.orientation[k], b.omega[k]);
+    const Vec3 in = b.inertia[k];
+    return 0.5 * b.mass[k] * norm2(b.velocity[k]) + 0.5 * (in.x * wb.x * wb.x + in.y * wb.y * wb.y + in.z * wb.z * wb.z);
+  }
+};
+
+}  // namespace biodem::gpu::BIODEM_GPU_NS
