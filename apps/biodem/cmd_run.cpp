@@ -1,4 +1,4 @@
-// `biodem run CASE --out DIR [--threads N] [--resume]` (SPEC 11).
+// `biodem run CASE --out DIR [--threads N] [--resume] [--device cpu|gpu]` (SPEC 11).
 #include <iostream>
 #include <string>
 
@@ -14,10 +14,15 @@ Action register_run(CLI::App& app) {
   static std::string case_path, out_dir;
   static int threads = 0;
   static bool resume = false;
+  static std::string device;
   sub->add_option("CASE", case_path, "case file (TOML)")->required();
   sub->add_option("--out", out_dir, "output directory (created if needed)")->required();
   sub->add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::NonNegativeNumber);
   sub->add_flag("--resume", resume, "continue from the last checkpoint in --out");
+  sub->add_option("--device", device,
+                  "engine: cpu (default), gpu (CUDA GPU engine), or gpu-emulated (the GPU engine's kernels on CPU "
+                  "threads, for testing); overrides [run] device")
+      ->check(CLI::IsMember({"cpu", "gpu", "gpu-emulated"}));
   return [] {
     const io::LoadedCase loaded = io::load_case(case_path);
     for (const auto& w : loaded.warnings) std::cerr << "warning: " << w << "\n";
@@ -25,6 +30,9 @@ Action register_run(CLI::App& app) {
     opt.out_dir = out_dir;
     opt.threads = threads;
     opt.resume = resume;
+    if (device == "cpu") opt.device = config::Device::Cpu;
+    if (device == "gpu") opt.device = config::Device::Gpu;
+    if (device == "gpu-emulated") opt.device = config::Device::GpuEmulated;
     opt.progress_tty = io::Progress::stderr_is_terminal();
     driver::run_case(loaded, opt);
     return 0;

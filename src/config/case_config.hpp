@@ -12,7 +12,12 @@ namespace biodem::config {
 
 using Vec3d = std::array<double, 3>;
 
+/// Which engine runs the case: the CPU engine (reference, default), the CUDA GPU engine, or the
+/// GPU engine's kernels on CPU threads (for testing the GPU engine without a GPU).
+enum class Device { Cpu, Gpu, GpuEmulated };
+
 struct RunConfig {
+  Device device = Device::Cpu;
   double dt_s = 0.0;
   std::uint64_t seed = 1;
   Vec3d gravity_m_s2{0.0, -9.81, 0.0};

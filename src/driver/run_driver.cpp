@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -21,6 +22,7 @@
 #include "io/series_csv.hpp"
 #include "core/error.hpp"
 #include "driver/build_simulation.hpp"
+#include "gpu/device_engine.hpp"
 #include "io/case_report.hpp"
 #include "io/output_dir.hpp"
 #include "io/progress.hpp"
@@ -75,7 +77,13 @@ class Runner {
  public:
   Runner(const io::LoadedCase& loaded, const RunOptions& opt)
       : cfg_(loaded.config), warnings_(loaded.warnings), opt_(opt), built_(build_simulation(cfg_)), sim_(*built_.sim),
-        progress_(std::cerr, opt.progress_tty) {}
+        progress_(std::cerr, opt.progress_tty) {
+    device_ = opt.device.value_or(cfg_.run.device);
+    // Created before any output is touched: a GPU run without a GPU (or without the CUDA build)
+    // stops here with one line.
+    if (device_ == config::Device::Gpu) dev_ = gpu::make_device_engine(gpu::Backend::Cuda, sim_);
+    if (device_ == config::Device::GpuEmulated) dev_ = gpu::make_device_engine(gpu::Backend::HostThreads, sim_);
+  }
 
   RunSummary run();
 
@@ -91,6 +99,11 @@ class Runner {
   void snapshot();
   double revolution() const;
   void report_progress(const std::string& label);
+  /// One time step on the selected engine.
+  void advance();
+  /// GPU engine: brings the host Simulation up to date (with the contact history when `history`).
+  void sync(bool history);
+  double kinetic_energy_j();
 
   const config::CaseConfig& cfg_;
   std::vector<std::string> warnings_;
@@ -116,7 +129,31 @@ class Runner {
   double rotation_time_s_ = 0.0;
   std::size_t snapshot_index_ = 0;
   std::string current_phase_ = "insert";
+  config::Device device_ = config::Device::Cpu;
+  std::unique_ptr<gpu::DeviceEngine> dev_;
+  std::uint64_t synced_step_ = ~std::uint64_t{0};
+  bool synced_history_ = false;
+  bool device_current_ = false;  // the device holds the run's state (host may lag behind)
 };
+
+void Runner::advance() {
+  if (!dev_) {
+    sim_.step();
+    return;
+  }
+  dev_->step();
+  device_current_ = true;
+}
+
+void Runner::sync(bool history) {
+  if (!dev_ || !device_current_) return;
+  if (synced_step_ == sim_.step_count() && (synced_history_ || !history)) return;
+  dev_->download(history);
+  synced_step_ = sim_.step_count();
+  synced_history_ = history;
+}
+
+double Runner::kinetic_energy_j() { return dev_ && device_current_ ? dev_->kinetic_energy_j() : sim_.kinetic_energy_j(); }
 
 double Runner::revolution() const {
   const double rpm = cfg_.drum ? std::abs(cfg_.drum->rpm) : 0.0;
@@ -125,6 +162,7 @@ double Runner::revolution() const {
 
 void Runner::write_log_header() {
   log_ << "biodem run\ncase: " << cfg_.source_path << "\nthreads: " << omp_get_max_threads() << "\n";
+  log_ << "engine: " << (dev_ ? "GPU engine on " + dev_->device_name() : std::string("CPU engine")) << "\n";
   for (const auto& w : warnings_) log_ << "warning: " << w << "\n";
   log_ << "\n" << io::describe_case(cfg_) << "\n";
   log_ << "sampling: every " << sample_every_ << " steps (" << 1.0 / (sample_every_ * cfg_.run.dt_s)
@@ -140,6 +178,7 @@ void Runner::report_progress(const std::string& label) {
 void Runner::sample() {
   if (last_sample_step_ == sim_.step_count()) return;  // already sampled at this step
   last_sample_step_ = sim_.step_count();
+  sync(false);
   const auto& b = sim_.bodies();
   double m = 0.0, xc = 0.0, yc = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {
@@ -183,6 +222,7 @@ void Runner::sample() {
 
 void Runner::snapshot() {
   last_snapshot_step_ = sim_.step_count();
+  sync(false);
   const auto& s = sim_.spheres();
   const auto& b = sim_.bodies();
   char name[64];
@@ -223,6 +263,17 @@ void Runner::snapshot() {
   ++snapshot_index_;
 }
 
+/// Test hook: BIODEM_TEST_ABORT_AT_STEP=N ends the process abruptly (no flush, no destructors,
+/// exit status 137 as after SIGKILL) once step N is done and its outputs are written, so that
+/// the kill-and-resume tests stop a run at a chosen step instead of racing a timer.
+std::uint64_t abort_at_step() {
+  static const std::uint64_t n = [] {
+    const char* v = std::getenv("BIODEM_TEST_ABORT_AT_STEP");
+    return v ? std::strtoull(v, nullptr, 10) : 0ull;
+  }();
+  return n;
+}
+
 void Runner::after_step() {
   if (sim_.drum_rotating()) rotation_time_s_ += sim_.dt_s();
   const std::uint64_t n = sim_.step_count();
@@ -231,10 +282,12 @@ void Runner::after_step() {
   if (frame_every_ && n % frame_every_ == 0) frame();
   if (checkpoint_every_ && n % checkpoint_every_ == 0 && current_phase_ != "insert") checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
+  if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
 }
 
 void Runner::frame() {
   if (!built_.drum) return;
+  sync(false);
   const auto& s = sim_.spheres();
   std::vector<double> x(s.size()), y(s.size());
   for (std::size_t i = 0; i < s.size(); ++i) {
@@ -250,6 +303,7 @@ void Runner::frame() {
 }
 
 void Runner::checkpoint() {
+  sync(true);
   series_->flush();
   if (trace_) trace_->flush();
   io::RunProgress rp;
@@ -270,6 +324,12 @@ void Runner::checkpoint() {
 void Runner::resume() {
   const std::string path = opt_.out_dir + "/checkpoint.bin";
   resumed_ = io::load_checkpoint(path, sim_);
+  if (dev_) {
+    dev_->upload();  // the checkpoint's forces and contact history: the run continues as it was
+    device_current_ = true;
+    synced_step_ = sim_.step_count();
+    synced_history_ = true;
+  }
   if (resumed_.case_hash != case_hash_)
     throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
   rotation_time_s_ = resumed_.rotation_time_s;
@@ -304,6 +364,7 @@ void Runner::insert_all() {
   int waves = 0, empty_waves = 0;
   while (next < todo.size()) {
     const std::size_t before = next;
+    sync(true);  // GPU engine: the host inserts into the current state, contact history included
     next = scenario::insert_wave(sim_, region, todo, next, ins.max_attempts_per_particle, rng);
     ++waves;
     log_ << "insertion wave " << waves << " at t = " << sim_.time_s() << " s: " << (next - before)
@@ -318,8 +379,13 @@ void Runner::insert_all() {
     }
     if (next < todo.size()) {
       current_phase_ = "insert";
+      if (dev_) {
+        dev_->upload();
+        device_current_ = true;
+        synced_step_ = ~std::uint64_t{0};
+      }
       for (std::uint64_t k = 0; k < fall_steps; ++k) {
-        sim_.step();
+        advance();
         after_step();
       }
     }
@@ -330,16 +396,17 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   current_phase_ = p.name;
   phase_index_ = index;
   sim_.set_drum_rotation(p.rotate);
+  if (dev_) dev_->sync_walls();
   log_ << "phase " << index + 1 << " '" << p.name << "' " << (start_step ? "resumes" : "starts") << " at t = "
        << sim_.time_s() << " s (step " << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
   std::uint64_t k = start_step;
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   while (!settled && k < p.max_steps) {
-    sim_.step();
+    advance();
     ++k;
     if (p.criterion) {
-      const double mean_ke = sim_.bodies().size() ? sim_.kinetic_energy_j() / sim_.bodies().size() : 0.0;
+      const double mean_ke = sim_.bodies().size() ? kinetic_energy_j() / sim_.bodies().size() : 0.0;
       below = mean_ke < p.ke_threshold_j ? below + 1 : 0;
       settled = k >= p.min_steps && below >= p.hold_steps;
     }
@@ -351,8 +418,9 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double rate = wall > 0.0 ? static_cast<double>(sim_.spheres().size()) * static_cast<double>(k) / wall : 0.0;
   log_ << "phase '" << p.name << "' ends at t = " << sim_.time_s() << " s after " << k << " steps";
-  log_ << "; wall " << wall << " s, " << rate << " sphere-steps/s, " << rate / omp_get_max_threads()
-       << " sphere-steps/s/thread";
+  log_ << "; wall " << wall << " s, " << (k ? 1e6 * wall / static_cast<double>(k) : 0.0) << " us/step, " << rate
+       << " sphere-steps/s";
+  if (!dev_) log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
   if (p.criterion)
     log_ << (below >= p.hold_steps ? " (settled: mean kinetic energy below threshold)"
                                    : " (max_duration_s reached before the bed was at rest)");
@@ -433,7 +501,16 @@ RunSummary Runner::run() {
     pvd_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
     pvd_bodies_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/bodies.pvd");
     insert_all();
-    sim_.refresh();
+    if (dev_) {
+      // Forces of the inserted state on the device (contact history kept), then the host made
+      // current for the first sample, snapshot and checkpoint.
+      dev_->upload();
+      device_current_ = true;
+      synced_step_ = ~std::uint64_t{0};
+      sync(true);
+    } else {
+      sim_.refresh();
+    }
     log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
     total_steps_estimate_ += sim_.step_count();
     sample();
@@ -446,6 +523,7 @@ RunSummary Runner::run() {
     phase_step_ = 0;
     settle_counter_ = 0;
   }
+  sync(true);
   if (sim_.step_count() % sample_every_ != 0) sample();  // the series always ends at the final state
   if (last_snapshot_step_ != sim_.step_count()) snapshot();
   phase_index_ = phases.size();
@@ -464,8 +542,13 @@ RunSummary Runner::run() {
   const double done = static_cast<double>(r.steps - steps_at_start);
   const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
-       << rate << " sphere-steps/s (" << rate / omp_get_max_threads() << " per thread), neighbour builds "
-       << sim_.neighbor_list().builds() << "\n";
+       << rate << " sphere-steps/s";
+  if (dev_)
+    log_ << ", " << (done > 0 ? 1e6 * wall / done : 0.0) << " us/step on " << dev_->device_name()
+         << ", device neighbour builds " << dev_->list_builds() << "\n";
+  else
+    log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
+         << "\n";
   log_.flush();
   std::ostringstream msg;
   msg << "done: " << r.steps << " steps (" << r.simulated_s << " s simulated) in " << io::format_duration(wall)

@@ -1,6 +1,7 @@
 // `biodem run`: insertion waves, phases (settle, rotate ...), sampling of the centroid-angle
 // series, snapshots, trace, run.log, progress. SPEC 5 and 11.
 #pragma once
+#include <optional>
 #include <string>
 
 #include "io/case_parser.hpp"
@@ -12,6 +13,7 @@ struct RunOptions {
   int threads = 0;      // 0: OpenMP default
   bool resume = false;
   bool progress_tty = false;
+  std::optional<config::Device> device;  // --device; absent: the case's [run] device (default cpu)
 };
 
 struct RunSummary {

@@ -22,6 +22,8 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "sim/simulation.hpp"
 
@@ -51,6 +53,9 @@ class DeviceEngine {
   virtual std::string device_name() const = 0;
   /// Neighbour-list builds on the device so far.
   virtual std::uint64_t list_builds() const = 0;
+  /// For tests: the pairs (i < j, storage indices) of the current device list, sorted, and the
+  /// number of row entries whose mirror entry (j's row holding i) is missing (0 in a valid list).
+  virtual std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) = 0;
 };
 
 /// Creates an engine on `backend` bound to `host`. Throws biodem::Error with one line when the

@@ -32,6 +32,16 @@ T* raw(typename System::template vector<T>& v) {
   return thrust::raw_pointer_cast(v.data());
 }
 
+template <class D, class H>
+void to_device(D& d, const H& h) {
+  d.assign(h.begin(), h.end());
+}
+template <class H, class D>
+void to_host(H& h, const D& d) {
+  h.resize(d.size());
+  thrust::copy(d.begin(), d.end(), h.begin());
+}
+
 /// Most walls a sphere is tested against each step (the drum has three).
 inline constexpr std::size_t kMaxDeviceWalls = 16;
 
@@ -44,6 +54,23 @@ class Engine final : public DeviceEngine {
 
   std::string device_name() const override { return name_; }
   std::uint64_t list_builds() const override { return builds_; }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
+    std::vector<std::uint32_t> j, len;
+    to_host(j, rows_.j);
+    to_host(len, rows_.length);
+    const std::size_t n = ns();
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> all, lo;
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::uint32_t q = 0; q < len[i]; ++q) all.emplace_back(static_cast<std::uint32_t>(i), j[q * n + i]);
+    std::sort(all.begin(), all.end());
+    std::size_t missing = 0;
+    for (const auto& [a, c] : all) {
+      if (!std::binary_search(all.begin(), all.end(), std::make_pair(c, a))) ++missing;
+      if (a < c) lo.emplace_back(a, c);
+    }
+    if (unmirrored) *unmirrored = missing;
+    return lo;
+  }
 
   void upload() override;
   void download(bool history) override;
@@ -123,16 +150,6 @@ class Engine final : public DeviceEngine {
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
 };
-
-template <class D, class H>
-void to_device(D& d, const H& h) {
-  d.assign(h.begin(), h.end());
-}
-template <class H, class D>
-void to_host(H& h, const D& d) {
-  h.resize(d.size());
-  thrust::copy(d.begin(), d.end(), h.begin());
-}
 
 inline void Engine::sync_walls() {
   const auto& w = host_.walls();

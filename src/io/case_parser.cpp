@@ -364,8 +364,14 @@ class CaseParser {
     const toml::table* t = single("run");
     if (!t) fail("[run]: required table is missing (it holds dt_s)");
     Reader r(file_, *t, "[run]", false,
-             {"dt_s", "seed", "gravity_m_s2", "allow_large_dt", "allow_initial_overlap", "skin_m"});
+             {"dt_s", "seed", "gravity_m_s2", "allow_large_dt", "allow_initial_overlap", "skin_m", "device"});
     auto& run = cfg_.run;
+    if (auto dev = r.opt_string("device")) {
+      if (*dev == "cpu") run.device = config::Device::Cpu;
+      else if (*dev == "gpu") run.device = config::Device::Gpu;
+      else if (*dev == "gpu-emulated") run.device = config::Device::GpuEmulated;
+      else r.fail("device", "must be \"cpu\", \"gpu\" or \"gpu-emulated\"");
+    }
     run.dt_s = r.real("dt_s", kPositive);
     run.seed = r.opt_uint("seed", 0).value_or(1);
     if (auto g = r.opt_vec3("gravity_m_s2")) run.gravity_m_s2 = *g;
