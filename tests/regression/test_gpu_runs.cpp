@@ -1,0 +1,124 @@
+// `biodem run --device gpu-emulated` (the GPU engine's kernels on CPU threads) drives the whole
+// run like the CPU engine: insertion waves, settle criterion, rotation, samples, snapshots,
+// trace, checkpoints. Checked here through the binary, as a user runs it:
+// - a short drum agrees with the CPU engine in alpha and kinetic energy;
+// - a GPU run stopped abruptly at chosen steps and resumed continues bit for bit;
+// - a GPU checkpoint resumes on the CPU engine and a CPU checkpoint on the GPU engine;
+// - `--device gpu` without a GPU (or without the CUDA build) is one clear line, no outputs.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "test_util.hpp"
+
+using namespace biodem::testing;
+namespace fs = std::filesystem;
+
+namespace {
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+const std::string kCase = source_dir() + "/tests/cases/checkpoint_tiny.toml";
+const std::string kNeedles = source_dir() + "/tests/cases/gpu_needles_tiny.toml";
+
+void expect_same_outputs(const std::string& a, const std::string& b) {
+  EXPECT_EQ(slurp(a + "/series.csv"), slurp(b + "/series.csv"));
+  EXPECT_EQ(slurp(a + "/trace.csv"), slurp(b + "/trace.csv"));
+  EXPECT_EQ(slurp(a + "/snapshots.pvd"), slurp(b + "/snapshots.pvd"));
+  for (const auto& e : fs::directory_iterator(a + "/snapshots"))
+    EXPECT_EQ(slurp(e.path().string()), slurp(b + "/snapshots/" + e.path().filename().string()))
+        << e.path().filename();
+}
+}  // namespace
+
+TEST(GpuRuns, SmallDrumAgreesWithCpuEngine) {
+  const std::string c = fresh_dir("gpu_vs_cpu_cpu"), g = fresh_dir("gpu_vs_cpu_gpu");
+  auto rc = run_command(biodem_exe() + " run " + kCase + " --out " + c + " --threads 1");
+  ASSERT_EQ(rc.status, 0) << rc.output;
+  auto rg = run_command(biodem_exe() + " run " + kCase + " --out " + g + " --threads 1 --device gpu-emulated");
+  ASSERT_EQ(rg.status, 0) << rg.output;
+  EXPECT_NE(slurp(g + "/run.log").find("engine: GPU engine on CPU threads"), std::string::npos);
+  EXPECT_NE(slurp(g + "/run.log").find("us/step"), std::string::npos);
+  const auto sc = read_csv(c + "/series.csv"), sg = read_csv(g + "/series.csv");
+  const auto ac = to_numbers(sc.at("alpha_deg")), ag = to_numbers(sg.at("alpha_deg"));
+  const auto kc = to_numbers(sc.at("kinetic_energy_j")), kg = to_numbers(sg.at("kinetic_energy_j"));
+  ASSERT_EQ(ac.size(), ag.size());
+  ASSERT_GT(ac.size(), 50u);
+  double worst_alpha = 0.0, ke_sum_c = 0.0, ke_sum_g = 0.0;
+  for (std::size_t k = 0; k < ac.size(); ++k) {
+    worst_alpha = std::max(worst_alpha, std::abs(ac[k] - ag[k]));
+    ke_sum_c += kc[k];
+    ke_sum_g += kg[k];
+  }
+  std::printf("[measured] tiny drum (400 beads, %zu samples): worst |alpha_cpu - alpha_gpu| = %.3g deg, "
+              "mean KE cpu %.6g J gpu %.6g J, final alpha %.4f vs %.4f\n",
+              ac.size(), worst_alpha, ke_sum_c / ac.size(), ke_sum_g / ag.size(), ac.back(), ag.back());
+  // The drum turns 0.06 revolution (21.6 deg) after settling; 0.5 deg is 2 % of that motion.
+  EXPECT_LT(worst_alpha, 0.5);
+  EXPECT_NEAR(ke_sum_g, ke_sum_c, 0.05 * ke_sum_c);
+}
+
+TEST(GpuRuns, StoppedGpuRunResumesBitForBit) {
+  const std::string a = fresh_dir("gpu_ckpt_full");
+  auto ra = run_command(biodem_exe() + " run " + kCase + " --out " + a + " --threads 1 --device gpu-emulated");
+  ASSERT_EQ(ra.status, 0) << ra.output;
+  // Stops after the first checkpoint (during settling), during settling between checkpoints,
+  // and during rotation.
+  for (const char* step : {"700", "2950", "5333"}) {
+    const std::string b = fresh_dir(std::string("gpu_ckpt_stop_") + step);
+    auto rk = run_command("BIODEM_TEST_ABORT_AT_STEP=" + std::string(step) + " " + biodem_exe() + " run " + kCase +
+                          " --out " + b + " --threads 1 --device gpu-emulated");
+    ASSERT_EQ(rk.status, 137) << "the run must stop at step " << step << ": " << rk.output;
+    ASSERT_TRUE(fs::exists(b + "/checkpoint.bin"));
+    auto rb = run_command(biodem_exe() + " run " + kCase + " --out " + b + " --threads 1 --device gpu-emulated --resume");
+    ASSERT_EQ(rb.status, 0) << rb.output;
+    expect_same_outputs(a, b);
+  }
+}
+
+TEST(GpuRuns, CheckpointsMoveBetweenDevices) {
+  // Reference runs on each engine, then each stopped and resumed on the other engine.
+  const std::string cpu = fresh_dir("xdev_cpu"), gpu = fresh_dir("xdev_gpu");
+  ASSERT_EQ(run_command(biodem_exe() + " run " + kNeedles + " --out " + cpu + " --threads 1").status, 0);
+  ASSERT_EQ(run_command(biodem_exe() + " run " + kNeedles + " --out " + gpu + " --threads 1 --device gpu-emulated").status, 0);
+  const auto a_cpu = to_numbers(read_csv(cpu + "/series.csv").at("alpha_deg"));
+  const auto a_gpu = to_numbers(read_csv(gpu + "/series.csv").at("alpha_deg"));
+  ASSERT_FALSE(a_cpu.empty());
+  ASSERT_EQ(a_cpu.size(), a_gpu.size());
+  // Stopped during the rotation, 1,001 steps after the checkpoint at step 8,000.
+  const std::string stop = "9001";
+  for (const auto& [first, second, ref] : {std::tuple<std::string, std::string, std::vector<double>>{"gpu-emulated", "cpu", a_gpu},
+                                           {"cpu", "gpu-emulated", a_cpu}}) {
+    const std::string d = fresh_dir("xdev_" + first + "_to_" + second);
+    auto rk = run_command("BIODEM_TEST_ABORT_AT_STEP=" + stop + " " + biodem_exe() + " run " + kNeedles + " --out " + d +
+                          " --threads 1 --device " + first);
+    ASSERT_EQ(rk.status, 137) << rk.output;
+    auto rr = run_command(biodem_exe() + " run " + kNeedles + " --out " + d + " --threads 1 --resume --device " + second);
+    ASSERT_EQ(rr.status, 0) << rr.output;
+    const auto a = to_numbers(read_csv(d + "/series.csv").at("alpha_deg"));
+    ASSERT_EQ(a.size(), ref.size());
+    double worst = 0.0;
+    for (std::size_t k = 0; k < a.size(); ++k) worst = std::max(worst, std::abs(a[k] - ref[k]));
+    std::printf("[measured] needles %s -> %s at step %s: worst |alpha - alpha_%s| = %.3g deg over %zu samples\n",
+                first.c_str(), second.c_str(), stop.c_str(), first.c_str(), worst, a.size());
+    // A resumed run continues the same bed (the engines differ only in summation order); a lost
+    // contact history or a wrong sign would jolt the cohesive needle bed by degrees.
+    EXPECT_LT(worst, 0.5);
+  }
+}
+
+TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
+  const std::string d = fresh_dir("gpu_missing");
+  auto r = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --device gpu");
+  if (r.status == 0) GTEST_SKIP() << "this machine has a GPU and a CUDA build";
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--device gpu"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d + "/series.csv")) << "nothing may be computed or written";
+  auto rb = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --device tpu");
+  EXPECT_NE(rb.status, 0);
+}
