@@ -80,7 +80,7 @@ struct Drum {
   AxialBoundary axial_boundary = AxialBoundary::EndPlates;
 };
 
-enum class WallKind { Plane, Disc, Cylinder };
+enum class WallKind { Plane, Disc, Cylinder, Rectangle };
 
 struct Wall {
   WallKind kind = WallKind::Plane;
@@ -94,6 +94,13 @@ struct Wall {
   // the geometry does not move, the surface velocity is omega x r. rad/s, sign: right-hand rule
   // about `normal`.
   double angular_velocity_rad_s = 0.0;
+  // Rectangle: a finite thin plate centred on point_m, size_m[0] along the unit in-plane
+  // direction u, size_m[1] along normal x u.
+  Vec3d u{1, 0, 0};
+  std::array<double, 2> size_m{0.0, 0.0};
+  // Prescribed translation (any kind): constant velocity from move_start_s to move_end_s.
+  Vec3d translation_velocity_m_s{};
+  double move_start_s = 0.0, move_end_s = 0.0;
 };
 
 struct Particle {

@@ -28,6 +28,7 @@
 #include "core/quat.hpp"
 #include "io/case_report.hpp"
 #include "shapes/clump_template.hpp"
+#include "walls/wall_from_config.hpp"
 #include "walls/wall_geometry.hpp"
 
 namespace biodem::io {
@@ -584,7 +585,8 @@ class CaseParser {
       // the line through point_m along `normal` (plane, disc) or `axis` (cylinder); right-hand
       // rule. The geometry stays put; only the surface velocity omega x r is prescribed.
       Reader r(file_, *list[i], entry_path("wall", i), true,
-               {"kind", "material", "point_m", "normal", "axis", "radius_m", "length_m", "angular_velocity_rad_s"});
+               {"kind", "material", "point_m", "normal", "axis", "radius_m", "length_m", "angular_velocity_rad_s", "u",
+                "size_m", "translation_velocity_m_s", "move_start_s", "move_end_s"});
       config::Wall w;
       const std::string kind = r.string("kind");
       std::vector<std::string_view> own;
@@ -597,10 +599,13 @@ class CaseParser {
       } else if (kind == "cylinder") {
         w.kind = config::WallKind::Cylinder;
         own = {"axis", "radius_m", "length_m"};
+      } else if (kind == "rectangle") {
+        w.kind = config::WallKind::Rectangle;
+        own = {"normal", "u", "size_m"};
       } else {
-        r.fail("kind", "must be \"plane\", \"disc\" or \"cylinder\"");
+        r.fail("kind", "must be \"plane\", \"disc\", \"cylinder\" or \"rectangle\"");
       }
-      for (auto k : {"normal", "axis", "radius_m", "length_m"})
+      for (auto k : {"normal", "axis", "radius_m", "length_m", "u", "size_m"})
         if (r.has(k) && std::find(own.begin(), own.end(), std::string_view(k)) == own.end())
           r.fail(k, "not a key of kind \"" + kind + "\" (its own keys: " + join(own) + ")");
       w.material = material_ref(r, "material");
@@ -613,7 +618,26 @@ class CaseParser {
         w.normal = r.unit_vec3("normal");
         if (w.kind == config::WallKind::Disc) w.radius_m = r.real("radius_m", kPositive);
       }
+      if (w.kind == config::WallKind::Rectangle) {
+        w.u = r.unit_vec3("u");
+        const double c = w.u[0] * w.normal[0] + w.u[1] * w.normal[1] + w.u[2] * w.normal[2];
+        if (std::abs(c) > 1e-6) r.fail("u", "must be perpendicular to normal (u . normal = " + num(c, 3) + ")");
+        auto sz = r.opt_numbers("size_m", 2, "[length along u, length along normal x u]");
+        if (!sz) r.missing("size_m", "");
+        if (!((*sz)[0] > 0.0) || !((*sz)[1] > 0.0)) r.fail("size_m", "both sides must be positive");
+        w.size_m = {(*sz)[0], (*sz)[1]};
+      }
       w.angular_velocity_rad_s = r.real_or("angular_velocity_rad_s", 0.0);
+      if (auto v = r.opt_vec3("translation_velocity_m_s")) {
+        w.translation_velocity_m_s = *v;
+        w.move_start_s = r.real_or("move_start_s", 0.0, kNonNegative);
+        if (!r.has("move_end_s")) r.missing("move_end_s", " (when the wall stops; translation_velocity_m_s is set)");
+        w.move_end_s = r.real("move_end_s", kPositive);
+        if (!(w.move_end_s > w.move_start_s)) r.fail("move_end_s", "must be later than move_start_s");
+      } else {
+        for (auto k : {"move_start_s", "move_end_s"})
+          if (r.has(k)) r.fail(k, "needs translation_velocity_m_s (the wall does not move)");
+      }
       cfg_.walls.push_back(w);
     }
   }
@@ -869,14 +893,7 @@ class CaseParser {
     for (const auto& s : spheres)
       for (std::size_t w = 0; w < cfg_.walls.size(); ++w) {
         const auto& cw = cfg_.walls[w];
-        walls::WallGeometry g;
-        g.kind = cw.kind == config::WallKind::Plane  ? walls::Kind::Plane
-                 : cw.kind == config::WallKind::Disc ? walls::Kind::Disc
-                                                     : walls::Kind::Cylinder;
-        g.point_m = {cw.point_m[0], cw.point_m[1], cw.point_m[2]};
-        g.normal = {cw.normal[0], cw.normal[1], cw.normal[2]};
-        g.radius_m = cw.radius_m;
-        g.length_m = cw.length_m;
+        const walls::WallGeometry g = walls::geometry_from_config(cw);
         const walls::WallHit h = walls::wall_hit(g, s.c, s.r);
         const double overlap = s.r - h.gap_m;
         if (h.touching && overlap > 1e-9 * s.r)

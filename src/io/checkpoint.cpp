@@ -157,8 +157,10 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   o.pod<std::uint64_t>(sim.templates().size());
   body_fields(o, sim.bodies_mut());
   sphere_fields(o, sim.spheres_mut());
-  o.vec(sim.wall_history());
-  o.vec(sim.wall_touching());
+  o.vec(sim.wall_contacts().start);
+  o.vec(sim.wall_contacts().wall);
+  o.vec(sim.wall_contacts().history);
+  o.vec(sim.wall_contacts().touching);
   list_fields(o, sim.neighbor_list_mut());
   o.vec(sim.neighbor_list().built_at());
   o.pod<std::uint64_t>(sim.neighbor_list().builds());
@@ -231,8 +233,13 @@ RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
     throw Error(path + ": checkpoint does not match this case (walls or shapes differ)");
   body_fields(in, sim.bodies_mut());
   sphere_fields(in, sim.spheres_mut());
-  in.vec(sim.wall_history());
-  in.vec(sim.wall_touching());
+  in.vec(sim.wall_contacts().start);
+  in.vec(sim.wall_contacts().wall);
+  in.vec(sim.wall_contacts().history);
+  in.vec(sim.wall_contacts().touching);
+  if (sim.wall_contacts().start.size() != sim.spheres().size() + 1 ||
+      sim.wall_contacts().wall.size() != sim.wall_contacts().start.back())
+    throw Error(path + ": corrupt checkpoint (wall contact table)");
   list_fields(in, sim.neighbor_list_mut());
   std::vector<Vec3> built_at;
   in.vec(built_at);

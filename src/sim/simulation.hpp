@@ -32,6 +32,23 @@ struct WallSpec {
   std::uint16_t material = 0;
   bool drum_wall = false;            // turns with the drum when rotation is on
   double drum_sign = 1.0;            // +1 / -1: orientation of the wall normal along the drum axis
+  // Prescribed translation: the wall moves at translation_velocity_m_s from move_start_s to
+  // move_end_s (simulation time) and rests before and after; its position is a function of the
+  // time only (point at t = initial point + velocity * clamp(t - start, 0, end - start)).
+  Vec3 translation_velocity_m_s;
+  double move_start_s = 0.0, move_end_s = 0.0;
+  bool translates() const { return move_end_s > move_start_s && norm2(translation_velocity_m_s) > 0.0; }
+};
+
+/// Sparse wall contact table (CSR by sphere): the walls each sphere may touch before the next
+/// neighbour build (candidates), with their contact history. Walls within reach (radius + skin)
+/// at the last build, walls still touching, and every translating wall are candidates; memory
+/// is per candidate, not per sphere and wall, so any number of walls works.
+struct WallContacts {
+  std::vector<std::uint32_t> start{0};  // n_spheres + 1
+  std::vector<std::uint32_t> wall;
+  std::vector<contact::ContactHistory> history;
+  std::vector<std::uint8_t> touching;
 };
 
 struct BodyInit {
@@ -84,8 +101,8 @@ class Simulation {
   const std::vector<WallSpec>& walls() const { return walls_; }
   const neighbor::VerletList& neighbor_list() const { return list_; }
   neighbor::VerletList& neighbor_list_mut() { return list_; }
-  std::vector<contact::ContactHistory>& wall_history() { return wall_history_; }
-  std::vector<std::uint8_t>& wall_touching() { return wall_touching_; }
+  WallContacts& wall_contacts() { return wall_contacts_; }
+  const WallContacts& wall_contacts() const { return wall_contacts_; }
   const contact::PairTable& pair_table() const { return pairs_; }
   double skin_m() const { return skin_m_; }
   const neighbor::Domain& domain() const { return domain_; }
@@ -120,6 +137,8 @@ class Simulation {
   /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2
   /// between builds, so no other wall can be touched before the next build).
   void update_wall_candidates();
+  /// Places translating walls where their schedule puts them at time t and sets their velocity.
+  void update_wall_motion(double t);
 
   std::vector<shapes::ClumpTemplate> templates_;
   std::vector<double> density_;
@@ -132,9 +151,8 @@ class Simulation {
   neighbor::Domain domain_;
   neighbor::VerletList list_;
   double skin_m_ = -1.0;
-  std::vector<contact::ContactHistory> wall_history_;  // [sphere * n_walls + wall]
-  std::vector<std::uint8_t> wall_touching_;
-  std::vector<std::uint64_t> wall_candidates_;  // bit w set: wall w is within reach of the sphere
+  WallContacts wall_contacts_;
+  std::vector<Vec3> wall_initial_point_m_;  // point_m of each wall at t = 0 (translating walls)
   bool list_valid_ = false;
   bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;
