@@ -103,6 +103,15 @@ struct Wall {
   double move_start_s = 0.0, move_end_s = 0.0;
 };
 
+/// [[sink]]: bodies whose centre of mass enters the region are removed and counted.
+enum class SinkKind { BelowPlane, OutsideBox };
+struct Sink {
+  SinkKind kind = SinkKind::BelowPlane;
+  Vec3d point_m{};         // below_plane
+  Vec3d normal{0, 1, 0};   // below_plane: bodies on the -normal side are removed
+  Vec3d min_m{}, max_m{};  // outside_box
+};
+
 struct Particle {
   std::size_t shape = 0;
   std::size_t material = 0;
@@ -155,6 +164,7 @@ struct CaseConfig {
   std::optional<Insertion> insertion;
   std::optional<Drum> drum;
   std::vector<Wall> walls;
+  std::vector<Sink> sinks;
   std::vector<Particle> particles;
   std::optional<Domain> domain;
   std::vector<Phase> phases;

@@ -68,6 +68,15 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
     s.material = static_cast<std::uint16_t>(w.material);
     sim.add_wall(s);
   }
+  for (const auto& k : c.sinks) {
+    sim::SinkSpec s;
+    s.kind = k.kind == config::SinkKind::BelowPlane ? sim::SinkSpec::Kind::BelowPlane : sim::SinkSpec::Kind::OutsideBox;
+    s.point_m = v3(k.point_m);
+    s.normal = normalized(v3(k.normal));
+    s.min_m = v3(k.min_m);
+    s.max_m = v3(k.max_m);
+    sim.add_sink(s);
+  }
   sim.set_skin(io::resolved_skin_m(c));
   for (const auto& p : c.particles) {
     sim::BodyInit b;

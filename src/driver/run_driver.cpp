@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -169,10 +170,12 @@ void Runner::sample() {
   series_->write(row);
   if (trace_) {
     char buf[512];
-    std::vector<std::uint32_t> by_id(b.size());
-    for (std::size_t i = 0; i < b.size(); ++i) by_id[b.id[i]] = static_cast<std::uint32_t>(i);
-    for (std::size_t id = 0; id < b.size(); ++id) {
-      const std::size_t i = by_id[id];
+    // Rows in id order; ids are stable and have gaps once a sink removed bodies.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> by_id(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) by_id[i] = {b.id[i], static_cast<std::uint32_t>(i)};
+    std::sort(by_id.begin(), by_id.end());
+    for (const auto& [id32, i32] : by_id) {
+      const std::size_t id = id32, i = i32;
       const Vec3 &x = b.position_m[i], &v = b.velocity_m_s[i], &w = b.angular_velocity_rad_s[i];
       std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", sim_.time_s(), id, x.x,
                     x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z);
@@ -463,6 +466,8 @@ RunSummary Runner::run() {
   r.spheres = sim_.spheres().size();
   const double done = static_cast<double>(r.steps - steps_at_start);
   const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
+  if (!sim_.sinks().empty())
+    log_ << "sinks removed " << sim_.removed_bodies() << " bodies, " << sim_.removed_mass_kg() << " kg\n";
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
        << rate << " sphere-steps/s (" << rate / omp_get_max_threads() << " per thread), neighbour builds "
        << sim_.neighbor_list().builds() << "\n";

@@ -271,6 +271,7 @@ class CaseParser {
     parse_drum();
     parse_walls();
     parse_particles();
+    parse_sinks();
     parse_domain();
     parse_phases();
     parse_output();
@@ -300,7 +301,7 @@ class CaseParser {
   // ---------------------------------------------------------------- table access
   static constexpr std::string_view kSingle[] = {"run", "insertion", "drum", "domain", "output"};
   static constexpr std::string_view kArrays[] = {"material", "pair",     "shape", "population",
-                                                 "wall",     "particle", "phase"};
+                                                 "wall",     "particle", "phase", "sink"};
 
   void check_top_level() const {
     std::vector<std::string_view> all;
@@ -315,7 +316,7 @@ class CaseParser {
         fail("unknown top-level key " + std::string(is_array ? "[[" : "[") + std::string(key) +
              (is_array ? "]]" : "]") + suggestion(key, all, "", "") + "; known tables: [run], [[material]], " +
              "[[pair]], [[shape]], [[population]], [insertion], [drum], [[wall]], [[particle]], [domain], " +
-             "[[phase]], [output]");
+             "[[phase]], [output], [[sink]]");
       }
       if (single && !v.is_table())
         fail("[" + std::string(key) + "] must be a single table, written [" + std::string(key) + "]");
@@ -639,6 +640,38 @@ class CaseParser {
           if (r.has(k)) r.fail(k, "needs translation_velocity_m_s (the wall does not move)");
       }
       cfg_.walls.push_back(w);
+    }
+  }
+
+  void parse_sinks() {
+    const auto list = entries("sink");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      Reader r(file_, *list[i], entry_path("sink", i), true, {"kind", "point_m", "normal", "min_m", "max_m"});
+      config::Sink k;
+      const std::string kind = r.string("kind");
+      std::vector<std::string_view> own;
+      if (kind == "below_plane") {
+        k.kind = config::SinkKind::BelowPlane;
+        own = {"point_m", "normal"};
+      } else if (kind == "outside_box") {
+        k.kind = config::SinkKind::OutsideBox;
+        own = {"min_m", "max_m"};
+      } else {
+        r.fail("kind", "must be \"below_plane\" or \"outside_box\"");
+      }
+      for (auto key : {"point_m", "normal", "min_m", "max_m"})
+        if (r.has(key) && std::find(own.begin(), own.end(), std::string_view(key)) == own.end())
+          r.fail(key, "not a key of kind \"" + kind + "\" (its own keys: " + join(own) + ")");
+      if (k.kind == config::SinkKind::BelowPlane) {
+        k.point_m = r.vec3("point_m");
+        k.normal = r.unit_vec3("normal");
+      } else {
+        k.min_m = r.vec3("min_m");
+        k.max_m = r.vec3("max_m");
+        for (int a = 0; a < 3; ++a)
+          if (!(k.max_m[a] > k.min_m[a])) r.fail("max_m", "must exceed min_m along every axis");
+      }
+      cfg_.sinks.push_back(k);
     }
   }
 

@@ -316,6 +316,13 @@ std::string describe_case(const config::CaseConfig& c) {
          << num(w.move_end_s) << " s";
     os << "\n";
   }
+  for (std::size_t i = 0; i < c.sinks.size(); ++i) {
+    const auto& k = c.sinks[i];
+    os << "sink #" << i + 1 << ": removes bodies "
+       << (k.kind == config::SinkKind::BelowPlane ? "below the plane through " + vec(k.point_m) + " m, normal " + vec(k.normal)
+                                                  : "outside the box " + vec(k.min_m) + " .. " + vec(k.max_m) + " m")
+       << "\n";
+  }
   if (!c.particles.empty()) {
     os << "explicit particles: " << c.particles.size() << "\n";
     for (const auto& [m, s] : types) {

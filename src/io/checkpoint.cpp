@@ -165,6 +165,8 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   o.vec(sim.neighbor_list().built_at());
   o.pod<std::uint64_t>(sim.neighbor_list().builds());
   o.pod<double>(sim.skin_m());
+  o.pod<std::uint64_t>(sim.removed_bodies());
+  o.pod<double>(sim.removed_mass_kg());
 
   const auto& payload = o.bytes();
   const std::uint64_t sum = fnv1a(payload.data(), payload.size());
@@ -245,6 +247,9 @@ RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
   in.vec(built_at);
   const auto builds = in.pod<std::uint64_t>();
   const double skin = in.pod<double>();
+  const auto removed = in.pod<std::uint64_t>();
+  const double removed_mass = in.pod<double>();
+  sim.set_removed(removed, removed_mass);
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
   return rp;

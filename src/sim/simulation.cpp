@@ -189,6 +189,100 @@ void Simulation::reorder_spatially() {
   list_.renumber(new_of_old_sphere);
 }
 
+void Simulation::apply_sinks() {
+  if (sinks_.empty()) return;
+  const std::size_t nb = bodies_.size();
+  std::vector<std::uint8_t> flag(nb, 0);
+  bool any = false;
+  for (std::size_t b = 0; b < nb; ++b)
+    for (const auto& k : sinks_)
+      if (k.contains(bodies_.position_m[b])) {
+        flag[b] = 1;
+        any = true;
+        break;
+      }
+  if (any) remove_bodies(flag);
+}
+
+std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
+  const std::size_t nb = bodies_.size(), ns = spheres_.size();
+  constexpr std::uint32_t kGone = neighbor::VerletList::kRemoved;
+  std::vector<std::uint32_t> keep_body, new_of_old_sphere(ns, kGone), old_sphere_of_new;
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (b < remove.size() && remove[b]) {
+      ++removed_bodies_;
+      removed_mass_kg_ += bodies_.mass_kg[b];
+      continue;
+    }
+    keep_body.push_back(static_cast<std::uint32_t>(b));
+  }
+  const std::size_t removed = nb - keep_body.size();
+  if (removed == 0) return 0;
+  state::BodyStore nbs;
+  auto keep_b = [&](auto& dst, const auto& src) {
+    dst.resize(keep_body.size());
+    for (std::size_t q = 0; q < keep_body.size(); ++q) dst[q] = src[keep_body[q]];
+  };
+  keep_b(nbs.position_m, bodies_.position_m);
+  keep_b(nbs.velocity_m_s, bodies_.velocity_m_s);
+  keep_b(nbs.angular_velocity_rad_s, bodies_.angular_velocity_rad_s);
+  keep_b(nbs.angular_momentum_kg_m2_s, bodies_.angular_momentum_kg_m2_s);
+  keep_b(nbs.orientation, bodies_.orientation);
+  keep_b(nbs.mass_kg, bodies_.mass_kg);
+  keep_b(nbs.inertia_kg_m2, bodies_.inertia_kg_m2);
+  keep_b(nbs.shape, bodies_.shape);
+  keep_b(nbs.id, bodies_.id);
+  keep_b(nbs.sphere_count, bodies_.sphere_count);
+  keep_b(nbs.force_n, bodies_.force_n);
+  keep_b(nbs.torque_n_m, bodies_.torque_n_m);
+  nbs.first_sphere.resize(keep_body.size());
+  for (std::size_t q = 0; q < keep_body.size(); ++q) {
+    nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+    const std::uint32_t s0 = bodies_.first_sphere[keep_body[q]];
+    for (std::uint32_t s = s0; s < s0 + nbs.sphere_count[q]; ++s) {
+      new_of_old_sphere[s] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+      old_sphere_of_new.push_back(s);
+    }
+  }
+  const std::size_t ns_new = old_sphere_of_new.size();
+  state::SphereStore nss;
+  auto keep_s = [&](auto& dst, const auto& src) {
+    dst.resize(ns_new);
+    for (std::size_t q = 0; q < ns_new; ++q) dst[q] = src[old_sphere_of_new[q]];
+  };
+  keep_s(nss.position_m, spheres_.position_m);
+  keep_s(nss.velocity_m_s, spheres_.velocity_m_s);
+  keep_s(nss.angular_velocity_rad_s, spheres_.angular_velocity_rad_s);
+  keep_s(nss.radius_m, spheres_.radius_m);
+  keep_s(nss.offset_body_m, spheres_.offset_body_m);
+  keep_s(nss.material, spheres_.material);
+  keep_s(nss.body_mass_kg, spheres_.body_mass_kg);
+  keep_s(nss.force_n, spheres_.force_n);
+  keep_s(nss.torque_n_m, spheres_.torque_n_m);
+  nss.body.resize(ns_new);
+  for (std::size_t q = 0; q < keep_body.size(); ++q)
+    for (std::uint32_t s = nbs.first_sphere[q]; s < nbs.first_sphere[q] + nbs.sphere_count[q]; ++s)
+      nss.body[s] = static_cast<std::uint32_t>(q);
+  WallContacts wc;
+  wc.start.assign(ns_new + 1, 0);
+  const bool have_wc = wall_contacts_.start.size() == ns + 1;
+  for (std::size_t q = 0; q < ns_new; ++q) {
+    const std::uint32_t o = old_sphere_of_new[q];
+    if (have_wc)
+      for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+        wc.wall.push_back(wall_contacts_.wall[k]);
+        wc.history.push_back(wall_contacts_.history[k]);
+        wc.touching.push_back(wall_contacts_.touching[k]);
+      }
+    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
+  bodies_ = std::move(nbs);
+  spheres_ = std::move(nss);
+  wall_contacts_ = std::move(wc);
+  list_.renumber(new_of_old_sphere);  // drops the removed spheres' pairs; forces a rebuild
+  return removed;
+}
+
 void Simulation::rebuild_neighbors() {
   list_.build(spheres_);
   update_wall_candidates();
@@ -313,6 +407,7 @@ void Simulation::step() {
     }
   }
   update_wall_motion(time_s_ + dt);
+  apply_sinks();
   update_spheres_from_bodies();
   if (list_.needs_rebuild(spheres_)) {
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
@@ -320,8 +415,9 @@ void Simulation::step() {
   }
   compute_forces();
   reduce_to_bodies();
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) {
+  const std::size_t nb_kept = bodies_.size();  // a sink may have removed bodies
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb_kept >= kParallelThreshold)
+  for (std::size_t b = 0; b < nb_kept; ++b) {
     bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
     const Vec3 inertia = bodies_.inertia_kg_m2[b];
     if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {

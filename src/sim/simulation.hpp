@@ -40,6 +40,20 @@ struct WallSpec {
   bool translates() const { return move_end_s > move_start_s && norm2(translation_velocity_m_s) > 0.0; }
 };
 
+/// A region that removes the bodies whose centre of mass enters it (issue 9: particles that
+/// fall off a heap's base plate or out of a shear box). Removed bodies are counted with their mass.
+struct SinkSpec {
+  enum class Kind { BelowPlane, OutsideBox };
+  Kind kind = Kind::BelowPlane;
+  Vec3 point_m;          // below_plane: a point on the plane
+  Vec3 normal{0, 1, 0};  // below_plane: unit normal; bodies on the -normal side are removed
+  Vec3 min_m, max_m;     // outside_box: bodies outside [min, max] are removed
+  bool contains(const Vec3& x) const {
+    if (kind == Kind::BelowPlane) return dot(x - point_m, normal) < 0.0;
+    return x.x < min_m.x || x.y < min_m.y || x.z < min_m.z || x.x > max_m.x || x.y > max_m.y || x.z > max_m.z;
+  }
+};
+
 /// Sparse wall contact table (CSR by sphere): the walls each sphere may touch before the next
 /// neighbour build (candidates), with their contact history. Walls within reach (radius + skin)
 /// at the last build, walls still touching, and every translating wall are candidates; memory
@@ -68,6 +82,15 @@ class Simulation {
   // --- set-up ---
   std::uint32_t add_wall(const WallSpec& w);
   std::uint32_t add_body(const BodyInit& b);
+  void add_sink(const SinkSpec& s) { sinks_.push_back(s); }
+  const std::vector<SinkSpec>& sinks() const { return sinks_; }
+  /// Removes the bodies flagged (by storage index) with their spheres and contacts; the others
+  /// keep their stable ids and their contact history. Counts them and their mass as removed.
+  std::size_t remove_bodies(const std::vector<std::uint8_t>& remove);
+  /// Bodies removed so far (sinks and remove_bodies) and their total mass.
+  std::uint64_t removed_bodies() const { return removed_bodies_; }
+  double removed_mass_kg() const { return removed_mass_kg_; }
+  void set_removed(std::uint64_t n, double mass_kg) { removed_bodies_ = n; removed_mass_kg_ = mass_kg; }
   void set_domain(const neighbor::Domain& d) { domain_ = d; }
   void set_skin(double skin_m) { skin_m_ = skin_m; }
   /// Spatial re-sorting period in neighbour-list builds (0: never).
@@ -137,6 +160,8 @@ class Simulation {
   /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2
   /// between builds, so no other wall can be touched before the next build).
   void update_wall_candidates();
+  /// Removes the bodies inside a sink (called after the drift of each step).
+  void apply_sinks();
   /// Places translating walls where their schedule puts them at time t and sets their velocity.
   void update_wall_motion(double t);
 
@@ -153,6 +178,9 @@ class Simulation {
   double skin_m_ = -1.0;
   WallContacts wall_contacts_;
   std::vector<Vec3> wall_initial_point_m_;  // point_m of each wall at t = 0 (translating walls)
+  std::vector<SinkSpec> sinks_;
+  std::uint64_t removed_bodies_ = 0;
+  double removed_mass_kg_ = 0.0;
   bool list_valid_ = false;
   bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;
