@@ -67,6 +67,15 @@ struct Insertion {
   double coarse_grain = 1.0;                // multiplies every particle length
   std::uint64_t max_attempts_per_particle = 1000;
   std::optional<double> wave_fall_s;        // time between insertion waves; default: free fall over the drum diameter
+  // Region (issue 9): the drum interior (default with [drum]), or a box / finite cylinder of
+  // any scene. Pour: waves until all are placed (as in the drum); pack: all in one wave, else an error.
+  enum class Region { Drum, Box, Cylinder };
+  enum class Mode { Pour, Pack };
+  Region region = Region::Drum;
+  Mode mode = Mode::Pour;
+  Vec3d region_min_m{}, region_max_m{};          // box
+  Vec3d region_base_m{}, region_axis{0, 1, 0};   // cylinder: centre of its base circle, unit axis
+  double region_radius_m = 0.0, region_height_m = 0.0;
 };
 
 enum class AxialBoundary { EndPlates, Periodic };

@@ -19,6 +19,7 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <unordered_map>
@@ -532,7 +533,8 @@ class CaseParser {
     if (!t) return;
     Reader r(file_, *t, "[insertion]", false,
              {"count", "fill_fraction", "bulk_solid_fraction", "coarse_grain", "max_attempts_per_particle",
-              "wave_fall_s"});
+              "wave_fall_s", "region", "mode", "region_min_m", "region_max_m", "region_base_m", "region_axis",
+              "region_radius_m", "region_height_m"});
     config::Insertion ins;
     ins.count = r.opt_uint("count", 1);
     ins.fill_fraction = r.opt_real("fill_fraction", kUnitOpen);
@@ -545,14 +547,62 @@ class CaseParser {
     ins.coarse_grain = r.real_or("coarse_grain", 1.0, kPositive);
     ins.max_attempts_per_particle = r.opt_uint("max_attempts_per_particle", 1).value_or(1000);
     ins.wave_fall_s = r.opt_real("wave_fall_s", kPositive);
+    parse_insertion_region(r, ins);
     if (cfg_.populations.empty()) fail("[[population]]: required by [insertion] (what to insert), none given");
     cfg_.insertion = ins;
+  }
+
+  // [insertion] region and mode (issue 9): the drum (default when there is a [drum]), or a box
+  // or finite cylinder of any scene.
+  void parse_insertion_region(const Reader& r, config::Insertion& ins) const {
+    using R = config::Insertion::Region;
+    const bool drum = single("drum") != nullptr;
+    const std::string region = r.opt_string("region").value_or(drum ? "drum" : "");
+    std::vector<std::string_view> own;
+    if (region == "drum") {
+      ins.region = R::Drum;
+    } else if (region == "box") {
+      ins.region = R::Box;
+      own = {"region_min_m", "region_max_m"};
+    } else if (region == "cylinder") {
+      ins.region = R::Cylinder;
+      own = {"region_base_m", "region_axis", "region_radius_m", "region_height_m"};
+    } else if (region.empty()) {
+      r.missing("region", " (\"box\" or \"cylinder\"; without [drum] there is no drum to fill)");
+    } else {
+      r.fail("region", "must be \"drum\", \"box\" or \"cylinder\"");
+    }
+    for (auto k : {"region_min_m", "region_max_m", "region_base_m", "region_axis", "region_radius_m", "region_height_m"})
+      if (r.has(k) && std::find(own.begin(), own.end(), std::string_view(k)) == own.end())
+        r.fail(k, "not a key of region \"" + region + "\"" + (own.empty() ? std::string() : " (its own keys: " + join(own) + ")"));
+    if (ins.region == R::Box) {
+      ins.region_min_m = r.vec3("region_min_m");
+      ins.region_max_m = r.vec3("region_max_m");
+      for (int a = 0; a < 3; ++a)
+        if (!(ins.region_max_m[a] > ins.region_min_m[a])) r.fail("region_max_m", "must exceed region_min_m along every axis");
+    } else if (ins.region == R::Cylinder) {
+      ins.region_base_m = r.vec3("region_base_m");
+      ins.region_axis = r.has("region_axis") ? r.unit_vec3("region_axis") : config::Vec3d{0, 1, 0};
+      ins.region_radius_m = r.real("region_radius_m", kPositive);
+      ins.region_height_m = r.real("region_height_m", kPositive);
+    }
+    if (ins.region != R::Drum && ins.fill_fraction)
+      r.fail("fill_fraction", "only with the drum region; give [insertion].count for a box or cylinder region");
+    const std::string mode = r.opt_string("mode").value_or("pour");
+    if (mode == "pour")
+      ins.mode = config::Insertion::Mode::Pour;
+    else if (mode == "pack")
+      ins.mode = config::Insertion::Mode::Pack;
+    else
+      r.fail("mode", "must be \"pour\" (waves) or \"pack\" (one wave)");
+    if (ins.region == R::Drum && ins.mode == config::Insertion::Mode::Pack) r.fail("mode", "\"pack\" needs a box or cylinder region");
   }
 
   void parse_drum() {
     const toml::table* t = single("drum");
     if (!t) {
-      if (cfg_.insertion) fail("[drum]: required by [insertion] (particles are inserted into the drum)");
+      if (cfg_.insertion && cfg_.insertion->region == config::Insertion::Region::Drum)
+        fail("[drum]: required by [insertion] (particles are inserted into the drum)");
       return;
     }
     Reader r(file_, *t, "[drum]", false,
@@ -784,7 +834,7 @@ class CaseParser {
 
   // ---------------------------------------------------------------- cross checks
   void check_something_to_simulate() const {
-    if (!cfg_.drum && cfg_.particles.empty())
+    if (!cfg_.drum && cfg_.particles.empty() && !cfg_.insertion)
       fail("nothing to simulate: give a [drum] with [insertion] and [[population]], or [[particle]] entries");
     if (!cfg_.populations.empty() && !cfg_.insertion)
       fail("[[population]]: populations are only used by [insertion], which is missing");
@@ -848,6 +898,7 @@ class CaseParser {
   }
 
   void check_insertion_feasible() const {
+    if (cfg_.insertion && cfg_.insertion->region != config::Insertion::Region::Drum) return check_region_feasible();
     if (!cfg_.insertion || !cfg_.drum) return;
     const auto& d = *cfg_.drum;
     const bool periodic = d.axial_boundary == config::AxialBoundary::Periodic;
@@ -872,6 +923,38 @@ class CaseParser {
                                               std::to_string(n) + ")";
       fail(key + ": the particles' solid volume is " + num(100.0 * fraction, 3) +
            " % of the drum volume; at most " + num(100.0 * kMaxInsertableSolidFraction) + " % can be inserted");
+    }
+  }
+
+  // Same rules as the drum: every shape fits the region; a packed region cannot take more
+  // solid than the drum's limit (poured waves are limited by the three-empty-waves rule at run time).
+  void check_region_feasible() const {
+    const auto& ins = *cfg_.insertion;
+    const bool box = ins.region == config::Insertion::Region::Box;
+    double smallest = 0.0;
+    if (box) {
+      smallest = kInf;
+      for (int a = 0; a < 3; ++a) smallest = std::min(smallest, ins.region_max_m[a] - ins.region_min_m[a]);
+    } else {
+      smallest = std::min(2.0 * ins.region_radius_m, ins.region_height_m);
+    }
+    const std::string key = box ? "[insertion].region_max_m" : "[insertion].region_radius_m";
+    for (const auto& p : cfg_.populations) {
+      const auto& t = templates_.at(p.shape);
+      if (!(2.0 * t.bounding_radius_m < smallest))
+        fail(key + ": the region (smallest size " + num(smallest) + " m) is too small for shape " +
+             cfg_.shapes[p.shape].name + " (bounding diameter " + num(2.0 * t.bounding_radius_m) +
+             " m after coarse graining)");
+    }
+    if (ins.mode == config::Insertion::Mode::Pack) {
+      const double volume = box ? (ins.region_max_m[0] - ins.region_min_m[0]) * (ins.region_max_m[1] - ins.region_min_m[1]) *
+                                      (ins.region_max_m[2] - ins.region_min_m[2])
+                                : std::numbers::pi * ins.region_radius_m * ins.region_radius_m * ins.region_height_m;
+      const double fraction = static_cast<double>(*ins.count) * mean_population_particle_volume_m3(cfg_) / volume;
+      if (fraction > kMaxInsertableSolidFraction)
+        fail("[insertion].count = " + std::to_string(*ins.count) + ": the particles' solid volume is " +
+             num(100.0 * fraction, 3) + " % of the region volume; at most " + num(100.0 * kMaxInsertableSolidFraction) +
+             " % can be packed in one wave");
     }
   }
 
