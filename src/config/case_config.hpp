@@ -72,6 +72,15 @@ struct Insertion {
   double coarse_grain = 1.0;                // multiplies every particle length
   std::uint64_t max_attempts_per_particle = 1000;
   std::optional<double> wave_fall_s;        // time between insertion waves; default: free fall over the drum diameter
+  // Region (issue 9): the drum interior (default with [drum]), or a box / finite cylinder of
+  // any scene. Pour: waves until all are placed (as in the drum); pack: all in one wave, else an error.
+  enum class Region { Drum, Box, Cylinder };
+  enum class Mode { Pour, Pack };
+  Region region = Region::Drum;
+  Mode mode = Mode::Pour;
+  Vec3d region_min_m{}, region_max_m{};          // box
+  Vec3d region_base_m{}, region_axis{0, 1, 0};   // cylinder: centre of its base circle, unit axis
+  double region_radius_m = 0.0, region_height_m = 0.0;
 };
 
 enum class AxialBoundary { EndPlates, Periodic };
@@ -85,7 +94,7 @@ struct Drum {
   AxialBoundary axial_boundary = AxialBoundary::EndPlates;
 };
 
-enum class WallKind { Plane, Disc, Cylinder };
+enum class WallKind { Plane, Disc, Cylinder, Rectangle };
 
 struct Wall {
   WallKind kind = WallKind::Plane;
@@ -99,6 +108,22 @@ struct Wall {
   // the geometry does not move, the surface velocity is omega x r. rad/s, sign: right-hand rule
   // about `normal`.
   double angular_velocity_rad_s = 0.0;
+  // Rectangle: a finite thin plate centred on point_m, size_m[0] along the unit in-plane
+  // direction u, size_m[1] along normal x u.
+  Vec3d u{1, 0, 0};
+  std::array<double, 2> size_m{0.0, 0.0};
+  // Prescribed translation (any kind): constant velocity from move_start_s to move_end_s.
+  Vec3d translation_velocity_m_s{};
+  double move_start_s = 0.0, move_end_s = 0.0;
+};
+
+/// [[sink]]: bodies whose centre of mass enters the region are removed and counted.
+enum class SinkKind { BelowPlane, OutsideBox };
+struct Sink {
+  SinkKind kind = SinkKind::BelowPlane;
+  Vec3d point_m{};         // below_plane
+  Vec3d normal{0, 1, 0};   // below_plane: bodies on the -normal side are removed
+  Vec3d min_m{}, max_m{};  // outside_box
 };
 
 struct Particle {
@@ -153,6 +178,7 @@ struct CaseConfig {
   std::optional<Insertion> insertion;
   std::optional<Drum> drum;
   std::vector<Wall> walls;
+  std::vector<Sink> sinks;
   std::vector<Particle> particles;
   std::optional<Domain> domain;
   std::vector<Phase> phases;

@@ -4,6 +4,7 @@
 #include "contact/viscous_damping.hpp"
 #include "core/error.hpp"
 #include "io/case_report.hpp"
+#include "walls/wall_from_config.hpp"
 
 namespace biodem::driver {
 namespace {
@@ -60,16 +61,21 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
   }
   for (const auto& w : c.walls) {
     sim::WallSpec s;
-    s.geometry.kind = w.kind == config::WallKind::Plane  ? walls::Kind::Plane
-                      : w.kind == config::WallKind::Disc ? walls::Kind::Disc
-                                                         : walls::Kind::Cylinder;
-    s.geometry.point_m = v3(w.point_m);
-    s.geometry.normal = normalized(v3(w.normal));
-    s.geometry.radius_m = w.radius_m;
-    s.geometry.length_m = w.length_m;
-    s.geometry.angular_velocity_rad_s = w.angular_velocity_rad_s;
+    s.geometry = walls::geometry_from_config(w);
+    s.translation_velocity_m_s = v3(w.translation_velocity_m_s);
+    s.move_start_s = w.move_start_s;
+    s.move_end_s = w.move_end_s;
     s.material = static_cast<std::uint16_t>(w.material);
     sim.add_wall(s);
+  }
+  for (const auto& k : c.sinks) {
+    sim::SinkSpec s;
+    s.kind = k.kind == config::SinkKind::BelowPlane ? sim::SinkSpec::Kind::BelowPlane : sim::SinkSpec::Kind::OutsideBox;
+    s.point_m = v3(k.point_m);
+    s.normal = normalized(v3(k.normal));
+    s.min_m = v3(k.min_m);
+    s.max_m = v3(k.max_m);
+    sim.add_sink(s);
   }
   sim.set_skin(io::resolved_skin_m(c));
   for (const auto& p : c.particles) {

@@ -2,6 +2,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -90,6 +91,7 @@ class Runner {
  private:
   void write_log_header();
   void insert_all();
+  void insert_into_region();
   void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
   void frame();
   void checkpoint();
@@ -208,10 +210,12 @@ void Runner::sample() {
   series_->write(row);
   if (trace_) {
     char buf[512];
-    std::vector<std::uint32_t> by_id(b.size());
-    for (std::size_t i = 0; i < b.size(); ++i) by_id[b.id[i]] = static_cast<std::uint32_t>(i);
-    for (std::size_t id = 0; id < b.size(); ++id) {
-      const std::size_t i = by_id[id];
+    // Rows in id order; ids are stable and have gaps once a sink removed bodies.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> by_id(b.size());
+    for (std::size_t i = 0; i < b.size(); ++i) by_id[i] = {b.id[i], static_cast<std::uint32_t>(i)};
+    std::sort(by_id.begin(), by_id.end());
+    for (const auto& [id32, i32] : by_id) {
+      const std::size_t id = id32, i = i32;
       const Vec3 &x = b.position_m[i], &v = b.velocity_m_s[i], &w = b.angular_velocity_rad_s[i];
       std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", sim_.time_s(), id, x.x,
                     x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z);
@@ -345,6 +349,7 @@ void Runner::resume() {
 }
 
 void Runner::insert_all() {
+  if (cfg_.insertion && cfg_.insertion->region != config::Insertion::Region::Drum) return insert_into_region();
   if (!built_.drum || !cfg_.insertion || built_.populations.empty()) return;
   const auto& ins = *cfg_.insertion;
   const std::uint64_t count = io::implied_particle_count(cfg_);
@@ -386,6 +391,66 @@ void Runner::insert_all() {
       }
       for (std::uint64_t k = 0; k < fall_steps; ++k) {
         advance();
+        after_step();
+      }
+    }
+  }
+}
+
+// Insertion into a box or cylinder region (issue 9): poured in waves from the region (each wave
+// fills it, then the particles fall for wave_fall_s, default the free fall over the region's
+// height), or packed in one wave; the same error rules as the drum.
+void Runner::insert_into_region() {
+  const auto& ins = *cfg_.insertion;
+  const std::uint64_t count = io::implied_particle_count(cfg_);
+  std::mt19937_64 rng(cfg_.run.seed);
+  const auto todo = scenario::plan_population(count, built_.population_volume_fraction,
+                                              built_.population_particle_volume_m3, built_.populations, rng);
+  scenario::Region region;
+  const auto v3 = [](const config::Vec3d& a) { return Vec3{a[0], a[1], a[2]}; };
+  double height = 0.0;
+  if (ins.region == config::Insertion::Region::Box) {
+    region.kind = scenario::Region::Kind::Box;
+    region.min_m = v3(ins.region_min_m);
+    region.max_m = v3(ins.region_max_m);
+    height = norm(region.max_m - region.min_m);
+  } else {
+    region.kind = scenario::Region::Kind::Cylinder;
+    region.base_m = v3(ins.region_base_m);
+    region.axis = normalized(v3(ins.region_axis));
+    region.radius_m = ins.region_radius_m;
+    region.height_m = ins.region_height_m;
+    height = ins.region_height_m;
+  }
+  const auto& gv = cfg_.run.gravity_m_s2;
+  const double g = std::max(1e-6, std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]));
+  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * height / g));
+  const std::uint64_t fall_steps = std::max<std::uint64_t>(1, steps_for(fall_s, cfg_.run.dt_s));
+  const bool pack = ins.mode == config::Insertion::Mode::Pack;
+  std::size_t next = 0;
+  int waves = 0, empty_waves = 0;
+  while (next < todo.size()) {
+    const std::size_t before = next;
+    next = scenario::insert_wave(sim_, region, todo, next, ins.max_attempts_per_particle, rng);
+    ++waves;
+    log_ << "insertion wave " << waves << " at t = " << sim_.time_s() << " s: " << (next - before)
+         << " particles (total " << next << " of " << todo.size() << ")\n";
+    log_.flush();
+    if (pack && next < todo.size())
+      throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(next) +
+                  " particles could be packed into the region (mode = \"pack\" places them in one wave; use " +
+                  "\"pour\" or a larger region)");
+    if (next == before) {
+      if (++empty_waves >= 3)
+        throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(next) +
+                    " particles could be inserted into the region (three insertion waves in a row placed none)");
+    } else {
+      empty_waves = 0;
+    }
+    if (next < todo.size()) {
+      current_phase_ = "insert";
+      for (std::uint64_t k = 0; k < fall_steps; ++k) {
+        sim_.step();
         after_step();
       }
     }
@@ -541,6 +606,8 @@ RunSummary Runner::run() {
   r.spheres = sim_.spheres().size();
   const double done = static_cast<double>(r.steps - steps_at_start);
   const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
+  if (!sim_.sinks().empty())
+    log_ << "sinks removed " << sim_.removed_bodies() << " bodies, " << sim_.removed_mass_kg() << " kg\n";
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
        << rate << " sphere-steps/s";
   if (dev_)

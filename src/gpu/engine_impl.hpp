@@ -270,17 +270,18 @@ inline void Engine::upload() {
     rows_.image.assign(n * cap, 0);
   }
 
-  // Wall history: host [sphere * n_walls + wall] -> device [wall * n + sphere].
+  // Wall history: host sparse table (per sphere: candidate walls) -> device [wall * n + sphere].
   {
-    const auto& wh = host_.wall_history();
-    const auto& wt = host_.wall_touching();
+    const auto& wc = host_.wall_contacts();
     std::vector<contact::ContactHistory> h(n * n_walls_);
     std::vector<std::uint8_t> t(n * n_walls_, 0);
-    for (std::size_t i = 0; i < n && (i + 1) * n_walls_ <= wh.size(); ++i)
-      for (std::size_t w = 0; w < n_walls_; ++w) {
-        h[w * n + i] = wh[i * n_walls_ + w];
-        t[w * n + i] = wt[i * n_walls_ + w];
-      }
+    if (wc.start.size() == n + 1)
+      for (std::size_t i = 0; i < n; ++i)
+        for (std::uint32_t k = wc.start[i]; k < wc.start[i + 1]; ++k)
+          if (wc.touching[k] && wc.wall[k] < n_walls_) {
+            h[wc.wall[k] * n + i] = wc.history[k];
+            t[wc.wall[k] * n + i] = 1;
+          }
     to_device(wall_history_, h);
     to_device(wall_touching_, t);
   }
@@ -497,19 +498,26 @@ inline void Engine::download(bool history) {
   if (found != touching)
     throw Error("internal: " + std::to_string(touching - found) +
                 " touching pairs of the device list are missing from the host list");
+  // Wall contacts: the touching ones with their history; the host adds the other candidates.
   std::vector<contact::ContactHistory> wh;
   std::vector<std::uint8_t> wt;
   to_host(wh, wall_history_);
   to_host(wt, wall_touching_);
-  auto& hwh = host_.wall_history();
-  auto& hwt = host_.wall_touching();
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t w = 0; w < n_walls_; ++w) {
-      hwh[i * n_walls_ + w] = wh[w * n + i];
-      hwt[i * n_walls_ + w] = wt[w * n + i];
-    }
+  sim::WallContacts wc;
+  wc.start.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t w = 0; w < n_walls_; ++w)
+      if (wt[w * n + i]) {
+        wc.wall.push_back(static_cast<std::uint32_t>(w));
+        wc.history.push_back(wh[w * n + i]);
+        wc.touching.push_back(1);
+      }
+    wc.start[i + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
+  host_.wall_contacts() = std::move(wc);
   host_.restore_after_checkpoint(host_.time_s(), host_.step_count(), host_.drum_rotating(), skin_, L.built_at(),
                                  L.builds());
+  host_.refresh_wall_candidates();
 }
 
 }  // namespace biodem::gpu::BIODEM_GPU_NS

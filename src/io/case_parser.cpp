@@ -19,6 +19,7 @@
 #include <initializer_list>
 #include <limits>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 #include <unordered_map>
@@ -28,6 +29,7 @@
 #include "core/quat.hpp"
 #include "io/case_report.hpp"
 #include "shapes/clump_template.hpp"
+#include "walls/wall_from_config.hpp"
 #include "walls/wall_geometry.hpp"
 
 namespace biodem::io {
@@ -270,6 +272,7 @@ class CaseParser {
     parse_drum();
     parse_walls();
     parse_particles();
+    parse_sinks();
     parse_domain();
     parse_phases();
     parse_output();
@@ -299,7 +302,7 @@ class CaseParser {
   // ---------------------------------------------------------------- table access
   static constexpr std::string_view kSingle[] = {"run", "insertion", "drum", "domain", "output"};
   static constexpr std::string_view kArrays[] = {"material", "pair",     "shape", "population",
-                                                 "wall",     "particle", "phase"};
+                                                 "wall",     "particle", "phase", "sink"};
 
   void check_top_level() const {
     std::vector<std::string_view> all;
@@ -314,7 +317,7 @@ class CaseParser {
         fail("unknown top-level key " + std::string(is_array ? "[[" : "[") + std::string(key) +
              (is_array ? "]]" : "]") + suggestion(key, all, "", "") + "; known tables: [run], [[material]], " +
              "[[pair]], [[shape]], [[population]], [insertion], [drum], [[wall]], [[particle]], [domain], " +
-             "[[phase]], [output]");
+             "[[phase]], [output], [[sink]]");
       }
       if (single && !v.is_table())
         fail("[" + std::string(key) + "] must be a single table, written [" + std::string(key) + "]");
@@ -536,7 +539,8 @@ class CaseParser {
     if (!t) return;
     Reader r(file_, *t, "[insertion]", false,
              {"count", "fill_fraction", "bulk_solid_fraction", "coarse_grain", "max_attempts_per_particle",
-              "wave_fall_s"});
+              "wave_fall_s", "region", "mode", "region_min_m", "region_max_m", "region_base_m", "region_axis",
+              "region_radius_m", "region_height_m"});
     config::Insertion ins;
     ins.count = r.opt_uint("count", 1);
     ins.fill_fraction = r.opt_real("fill_fraction", kUnitOpen);
@@ -549,14 +553,62 @@ class CaseParser {
     ins.coarse_grain = r.real_or("coarse_grain", 1.0, kPositive);
     ins.max_attempts_per_particle = r.opt_uint("max_attempts_per_particle", 1).value_or(1000);
     ins.wave_fall_s = r.opt_real("wave_fall_s", kPositive);
+    parse_insertion_region(r, ins);
     if (cfg_.populations.empty()) fail("[[population]]: required by [insertion] (what to insert), none given");
     cfg_.insertion = ins;
+  }
+
+  // [insertion] region and mode (issue 9): the drum (default when there is a [drum]), or a box
+  // or finite cylinder of any scene.
+  void parse_insertion_region(const Reader& r, config::Insertion& ins) const {
+    using R = config::Insertion::Region;
+    const bool drum = single("drum") != nullptr;
+    const std::string region = r.opt_string("region").value_or(drum ? "drum" : "");
+    std::vector<std::string_view> own;
+    if (region == "drum") {
+      ins.region = R::Drum;
+    } else if (region == "box") {
+      ins.region = R::Box;
+      own = {"region_min_m", "region_max_m"};
+    } else if (region == "cylinder") {
+      ins.region = R::Cylinder;
+      own = {"region_base_m", "region_axis", "region_radius_m", "region_height_m"};
+    } else if (region.empty()) {
+      r.missing("region", " (\"box\" or \"cylinder\"; without [drum] there is no drum to fill)");
+    } else {
+      r.fail("region", "must be \"drum\", \"box\" or \"cylinder\"");
+    }
+    for (auto k : {"region_min_m", "region_max_m", "region_base_m", "region_axis", "region_radius_m", "region_height_m"})
+      if (r.has(k) && std::find(own.begin(), own.end(), std::string_view(k)) == own.end())
+        r.fail(k, "not a key of region \"" + region + "\"" + (own.empty() ? std::string() : " (its own keys: " + join(own) + ")"));
+    if (ins.region == R::Box) {
+      ins.region_min_m = r.vec3("region_min_m");
+      ins.region_max_m = r.vec3("region_max_m");
+      for (int a = 0; a < 3; ++a)
+        if (!(ins.region_max_m[a] > ins.region_min_m[a])) r.fail("region_max_m", "must exceed region_min_m along every axis");
+    } else if (ins.region == R::Cylinder) {
+      ins.region_base_m = r.vec3("region_base_m");
+      ins.region_axis = r.has("region_axis") ? r.unit_vec3("region_axis") : config::Vec3d{0, 1, 0};
+      ins.region_radius_m = r.real("region_radius_m", kPositive);
+      ins.region_height_m = r.real("region_height_m", kPositive);
+    }
+    if (ins.region != R::Drum && ins.fill_fraction)
+      r.fail("fill_fraction", "only with the drum region; give [insertion].count for a box or cylinder region");
+    const std::string mode = r.opt_string("mode").value_or("pour");
+    if (mode == "pour")
+      ins.mode = config::Insertion::Mode::Pour;
+    else if (mode == "pack")
+      ins.mode = config::Insertion::Mode::Pack;
+    else
+      r.fail("mode", "must be \"pour\" (waves) or \"pack\" (one wave)");
+    if (ins.region == R::Drum && ins.mode == config::Insertion::Mode::Pack) r.fail("mode", "\"pack\" needs a box or cylinder region");
   }
 
   void parse_drum() {
     const toml::table* t = single("drum");
     if (!t) {
-      if (cfg_.insertion) fail("[drum]: required by [insertion] (particles are inserted into the drum)");
+      if (cfg_.insertion && cfg_.insertion->region == config::Insertion::Region::Drum)
+        fail("[drum]: required by [insertion] (particles are inserted into the drum)");
       return;
     }
     Reader r(file_, *t, "[drum]", false,
@@ -590,7 +642,8 @@ class CaseParser {
       // the line through point_m along `normal` (plane, disc) or `axis` (cylinder); right-hand
       // rule. The geometry stays put; only the surface velocity omega x r is prescribed.
       Reader r(file_, *list[i], entry_path("wall", i), true,
-               {"kind", "material", "point_m", "normal", "axis", "radius_m", "length_m", "angular_velocity_rad_s"});
+               {"kind", "material", "point_m", "normal", "axis", "radius_m", "length_m", "angular_velocity_rad_s", "u",
+                "size_m", "translation_velocity_m_s", "move_start_s", "move_end_s"});
       config::Wall w;
       const std::string kind = r.string("kind");
       std::vector<std::string_view> own;
@@ -603,10 +656,13 @@ class CaseParser {
       } else if (kind == "cylinder") {
         w.kind = config::WallKind::Cylinder;
         own = {"axis", "radius_m", "length_m"};
+      } else if (kind == "rectangle") {
+        w.kind = config::WallKind::Rectangle;
+        own = {"normal", "u", "size_m"};
       } else {
-        r.fail("kind", "must be \"plane\", \"disc\" or \"cylinder\"");
+        r.fail("kind", "must be \"plane\", \"disc\", \"cylinder\" or \"rectangle\"");
       }
-      for (auto k : {"normal", "axis", "radius_m", "length_m"})
+      for (auto k : {"normal", "axis", "radius_m", "length_m", "u", "size_m"})
         if (r.has(k) && std::find(own.begin(), own.end(), std::string_view(k)) == own.end())
           r.fail(k, "not a key of kind \"" + kind + "\" (its own keys: " + join(own) + ")");
       w.material = material_ref(r, "material");
@@ -619,8 +675,59 @@ class CaseParser {
         w.normal = r.unit_vec3("normal");
         if (w.kind == config::WallKind::Disc) w.radius_m = r.real("radius_m", kPositive);
       }
+      if (w.kind == config::WallKind::Rectangle) {
+        w.u = r.unit_vec3("u");
+        const double c = w.u[0] * w.normal[0] + w.u[1] * w.normal[1] + w.u[2] * w.normal[2];
+        if (std::abs(c) > 1e-6) r.fail("u", "must be perpendicular to normal (u . normal = " + num(c, 3) + ")");
+        auto sz = r.opt_numbers("size_m", 2, "[length along u, length along normal x u]");
+        if (!sz) r.missing("size_m", "");
+        if (!((*sz)[0] > 0.0) || !((*sz)[1] > 0.0)) r.fail("size_m", "both sides must be positive");
+        w.size_m = {(*sz)[0], (*sz)[1]};
+      }
       w.angular_velocity_rad_s = r.real_or("angular_velocity_rad_s", 0.0);
+      if (auto v = r.opt_vec3("translation_velocity_m_s")) {
+        w.translation_velocity_m_s = *v;
+        w.move_start_s = r.real_or("move_start_s", 0.0, kNonNegative);
+        if (!r.has("move_end_s")) r.missing("move_end_s", " (when the wall stops; translation_velocity_m_s is set)");
+        w.move_end_s = r.real("move_end_s", kPositive);
+        if (!(w.move_end_s > w.move_start_s)) r.fail("move_end_s", "must be later than move_start_s");
+      } else {
+        for (auto k : {"move_start_s", "move_end_s"})
+          if (r.has(k)) r.fail(k, "needs translation_velocity_m_s (the wall does not move)");
+      }
       cfg_.walls.push_back(w);
+    }
+  }
+
+  void parse_sinks() {
+    const auto list = entries("sink");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      Reader r(file_, *list[i], entry_path("sink", i), true, {"kind", "point_m", "normal", "min_m", "max_m"});
+      config::Sink k;
+      const std::string kind = r.string("kind");
+      std::vector<std::string_view> own;
+      if (kind == "below_plane") {
+        k.kind = config::SinkKind::BelowPlane;
+        own = {"point_m", "normal"};
+      } else if (kind == "outside_box") {
+        k.kind = config::SinkKind::OutsideBox;
+        own = {"min_m", "max_m"};
+      } else {
+        r.fail("kind", "must be \"below_plane\" or \"outside_box\"");
+      }
+      for (auto key : {"point_m", "normal", "min_m", "max_m"})
+        if (r.has(key) && std::find(own.begin(), own.end(), std::string_view(key)) == own.end())
+          r.fail(key, "not a key of kind \"" + kind + "\" (its own keys: " + join(own) + ")");
+      if (k.kind == config::SinkKind::BelowPlane) {
+        k.point_m = r.vec3("point_m");
+        k.normal = r.unit_vec3("normal");
+      } else {
+        k.min_m = r.vec3("min_m");
+        k.max_m = r.vec3("max_m");
+        for (int a = 0; a < 3; ++a)
+          if (!(k.max_m[a] > k.min_m[a])) r.fail("max_m", "must exceed min_m along every axis");
+      }
+      cfg_.sinks.push_back(k);
     }
   }
 
@@ -733,7 +840,7 @@ class CaseParser {
 
   // ---------------------------------------------------------------- cross checks
   void check_something_to_simulate() const {
-    if (!cfg_.drum && cfg_.particles.empty())
+    if (!cfg_.drum && cfg_.particles.empty() && !cfg_.insertion)
       fail("nothing to simulate: give a [drum] with [insertion] and [[population]], or [[particle]] entries");
     if (!cfg_.populations.empty() && !cfg_.insertion)
       fail("[[population]]: populations are only used by [insertion], which is missing");
@@ -797,6 +904,7 @@ class CaseParser {
   }
 
   void check_insertion_feasible() const {
+    if (cfg_.insertion && cfg_.insertion->region != config::Insertion::Region::Drum) return check_region_feasible();
     if (!cfg_.insertion || !cfg_.drum) return;
     const auto& d = *cfg_.drum;
     const bool periodic = d.axial_boundary == config::AxialBoundary::Periodic;
@@ -821,6 +929,38 @@ class CaseParser {
                                               std::to_string(n) + ")";
       fail(key + ": the particles' solid volume is " + num(100.0 * fraction, 3) +
            " % of the drum volume; at most " + num(100.0 * kMaxInsertableSolidFraction) + " % can be inserted");
+    }
+  }
+
+  // Same rules as the drum: every shape fits the region; a packed region cannot take more
+  // solid than the drum's limit (poured waves are limited by the three-empty-waves rule at run time).
+  void check_region_feasible() const {
+    const auto& ins = *cfg_.insertion;
+    const bool box = ins.region == config::Insertion::Region::Box;
+    double smallest = 0.0;
+    if (box) {
+      smallest = kInf;
+      for (int a = 0; a < 3; ++a) smallest = std::min(smallest, ins.region_max_m[a] - ins.region_min_m[a]);
+    } else {
+      smallest = std::min(2.0 * ins.region_radius_m, ins.region_height_m);
+    }
+    const std::string key = box ? "[insertion].region_max_m" : "[insertion].region_radius_m";
+    for (const auto& p : cfg_.populations) {
+      const auto& t = templates_.at(p.shape);
+      if (!(2.0 * t.bounding_radius_m < smallest))
+        fail(key + ": the region (smallest size " + num(smallest) + " m) is too small for shape " +
+             cfg_.shapes[p.shape].name + " (bounding diameter " + num(2.0 * t.bounding_radius_m) +
+             " m after coarse graining)");
+    }
+    if (ins.mode == config::Insertion::Mode::Pack) {
+      const double volume = box ? (ins.region_max_m[0] - ins.region_min_m[0]) * (ins.region_max_m[1] - ins.region_min_m[1]) *
+                                      (ins.region_max_m[2] - ins.region_min_m[2])
+                                : std::numbers::pi * ins.region_radius_m * ins.region_radius_m * ins.region_height_m;
+      const double fraction = static_cast<double>(*ins.count) * mean_population_particle_volume_m3(cfg_) / volume;
+      if (fraction > kMaxInsertableSolidFraction)
+        fail("[insertion].count = " + std::to_string(*ins.count) + ": the particles' solid volume is " +
+             num(100.0 * fraction, 3) + " % of the region volume; at most " + num(100.0 * kMaxInsertableSolidFraction) +
+             " % can be packed in one wave");
     }
   }
 
@@ -875,14 +1015,7 @@ class CaseParser {
     for (const auto& s : spheres)
       for (std::size_t w = 0; w < cfg_.walls.size(); ++w) {
         const auto& cw = cfg_.walls[w];
-        walls::WallGeometry g;
-        g.kind = cw.kind == config::WallKind::Plane  ? walls::Kind::Plane
-                 : cw.kind == config::WallKind::Disc ? walls::Kind::Disc
-                                                     : walls::Kind::Cylinder;
-        g.point_m = {cw.point_m[0], cw.point_m[1], cw.point_m[2]};
-        g.normal = {cw.normal[0], cw.normal[1], cw.normal[2]};
-        g.radius_m = cw.radius_m;
-        g.length_m = cw.length_m;
+        const walls::WallGeometry g = walls::geometry_from_config(cw);
         const walls::WallHit h = walls::wall_hit(g, s.c, s.r);
         const double overlap = s.r - h.gap_m;
         if (h.touching && overlap > 1e-9 * s.r)

@@ -298,14 +298,30 @@ std::string describe_case(const config::CaseConfig& c) {
   for (std::size_t i = 0; i < c.walls.size(); ++i) {
     const auto& w = c.walls[i];
     os << "  #" << i + 1 << " "
-       << (w.kind == config::WallKind::Plane ? "plane" : w.kind == config::WallKind::Disc ? "disc" : "cylinder")
+       << (w.kind == config::WallKind::Plane       ? "plane"
+           : w.kind == config::WallKind::Disc      ? "disc"
+           : w.kind == config::WallKind::Rectangle ? "rectangle"
+                                                   : "cylinder")
        << ", " << c.materials[w.material].name << ", point " << vec(w.point_m) << " m, "
        << (w.kind == config::WallKind::Cylinder ? "axis " : "normal ") << vec(w.normal);
-    if (w.kind != config::WallKind::Plane) os << ", radius " << num(w.radius_m) << " m";
+    if (w.kind == config::WallKind::Disc || w.kind == config::WallKind::Cylinder)
+      os << ", radius " << num(w.radius_m) << " m";
+    if (w.kind == config::WallKind::Rectangle)
+      os << ", u " << vec(w.u) << ", size " << num(w.size_m[0]) << " x " << num(w.size_m[1]) << " m";
     if (w.kind == config::WallKind::Cylinder)
       os << ", length " << (w.length_m > 0.0 ? num(w.length_m) + " m" : std::string("infinite"));
     if (w.angular_velocity_rad_s != 0.0) os << ", turning at " << num(w.angular_velocity_rad_s) << " rad/s";
+    if (w.move_end_s > w.move_start_s)
+      os << ", moving at " << vec(w.translation_velocity_m_s) << " m/s from " << num(w.move_start_s) << " to "
+         << num(w.move_end_s) << " s";
     os << "\n";
+  }
+  for (std::size_t i = 0; i < c.sinks.size(); ++i) {
+    const auto& k = c.sinks[i];
+    os << "sink #" << i + 1 << ": removes bodies "
+       << (k.kind == config::SinkKind::BelowPlane ? "below the plane through " + vec(k.point_m) + " m, normal " + vec(k.normal)
+                                                  : "outside the box " + vec(k.min_m) + " .. " + vec(k.max_m) + " m")
+       << "\n";
   }
   if (!c.particles.empty()) {
     os << "explicit particles: " << c.particles.size() << "\n";

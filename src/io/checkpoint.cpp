@@ -157,12 +157,16 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   o.pod<std::uint64_t>(sim.templates().size());
   body_fields(o, sim.bodies_mut());
   sphere_fields(o, sim.spheres_mut());
-  o.vec(sim.wall_history());
-  o.vec(sim.wall_touching());
+  o.vec(sim.wall_contacts().start);
+  o.vec(sim.wall_contacts().wall);
+  o.vec(sim.wall_contacts().history);
+  o.vec(sim.wall_contacts().touching);
   list_fields(o, sim.neighbor_list_mut());
   o.vec(sim.neighbor_list().built_at());
   o.pod<std::uint64_t>(sim.neighbor_list().builds());
   o.pod<double>(sim.skin_m());
+  o.pod<std::uint64_t>(sim.removed_bodies());
+  o.pod<double>(sim.removed_mass_kg());
 
   const auto& payload = o.bytes();
   const std::uint64_t sum = fnv1a(payload.data(), payload.size());
@@ -231,13 +235,21 @@ RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
     throw Error(path + ": checkpoint does not match this case (walls or shapes differ)");
   body_fields(in, sim.bodies_mut());
   sphere_fields(in, sim.spheres_mut());
-  in.vec(sim.wall_history());
-  in.vec(sim.wall_touching());
+  in.vec(sim.wall_contacts().start);
+  in.vec(sim.wall_contacts().wall);
+  in.vec(sim.wall_contacts().history);
+  in.vec(sim.wall_contacts().touching);
+  if (sim.wall_contacts().start.size() != sim.spheres().size() + 1 ||
+      sim.wall_contacts().wall.size() != sim.wall_contacts().start.back())
+    throw Error(path + ": corrupt checkpoint (wall contact table)");
   list_fields(in, sim.neighbor_list_mut());
   std::vector<Vec3> built_at;
   in.vec(built_at);
   const auto builds = in.pod<std::uint64_t>();
   const double skin = in.pod<double>();
+  const auto removed = in.pod<std::uint64_t>();
+  const double removed_mass = in.pod<double>();
+  sim.set_removed(removed, removed_mass);
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
   return rp;

@@ -13,7 +13,7 @@
 
 namespace biodem::io {
 
-inline constexpr std::uint32_t kCheckpointVersion = 2;  // 2: no per-entry torque_i
+inline constexpr std::uint32_t kCheckpointVersion = 3;  // 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies
 
 /// Where the run driver was when the checkpoint was taken.
 struct RunProgress {

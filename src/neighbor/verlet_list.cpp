@@ -200,6 +200,8 @@ void VerletList::build(const state::SphereStore& s) {
 void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
   const std::size_t n = new_of_old.size();
   if (row_start.size() != n + 1) return;
+  std::size_t n_new = 0;
+  for (std::uint32_t v : new_of_old) n_new += v != kRemoved;
   struct E {
     std::uint32_t i, j;
     std::int32_t image;
@@ -208,7 +210,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
   std::vector<E> kept;
   for (std::size_t i = 0; i < n; ++i)
     for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) {
-      if (!touching[k]) continue;
+      if (!touching[k] || new_of_old[i] == kRemoved || new_of_old[j[k]] == kRemoved) continue;
       E e{new_of_old[i], new_of_old[j[k]], image[k], history[k]};
       if (e.i > e.j) {
         std::swap(e.i, e.j);
@@ -223,7 +225,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
       kept.push_back(e);
     }
   std::sort(kept.begin(), kept.end(), [](const E& a, const E& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-  std::fill(row_start.begin(), row_start.end(), 0u);
+  row_start.assign(n_new + 1, 0u);
   for (const auto& e : kept) ++row_start[e.i + 1];
   std::partial_sum(row_start.begin(), row_start.end(), row_start.begin());
   j.resize(kept.size());

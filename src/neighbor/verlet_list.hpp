@@ -38,7 +38,9 @@ class VerletList {
   /// Re-indexes the existing list after spheres were renumbered (new index = new_of_old[old]),
   /// keeping the history of touching pairs; the next build() merges it as usual. A pair whose
   /// order flips (new i > new j) has its history negated: history is stored from i's side.
+  /// A sphere mapped to kRemoved is gone (its pairs are dropped).
   void renumber(const std::vector<std::uint32_t>& new_of_old);
+  static constexpr std::uint32_t kRemoved = 0xFFFFFFFFu;
   /// True when some sphere moved more than half the skin since the last build.
   bool needs_rebuild(const state::SphereStore& spheres) const;
 

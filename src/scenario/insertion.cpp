@@ -139,4 +139,79 @@ std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& reg, const s
   return next;
 }
 
+double Region::volume_m3() const {
+  if (kind == Kind::Box) return (max_m.x - min_m.x) * (max_m.y - min_m.y) * (max_m.z - min_m.z);
+  return std::numbers::pi * radius_m * radius_m * height_m;
+}
+
+bool Region::contains(const Vec3& c, double r) const {
+  if (kind == Kind::Box)
+    return c.x - r >= min_m.x && c.y - r >= min_m.y && c.z - r >= min_m.z && c.x + r <= max_m.x &&
+           c.y + r <= max_m.y && c.z + r <= max_m.z;
+  const Vec3 d = c - base_m;
+  const double h = dot(d, axis);
+  if (h - r < 0.0 || h + r > height_m) return false;
+  return norm2(d - h * axis) <= (radius_m - r) * (radius_m - r) && r <= radius_m;
+}
+
+std::size_t insert_wave(sim::Simulation& sim, const Region& reg, const std::vector<InsertionRequest>& todo,
+                        std::size_t next, std::uint64_t max_attempts, std::mt19937_64& rng) {
+  const auto& templates = sim.templates();
+  double r_max = 0.0;
+  for (const auto& t : templates) r_max = std::max(r_max, t.max_radius_m);
+  for (double r : sim.spheres().radius_m) r_max = std::max(r_max, r);
+  SphereHash hash(2.0 * r_max);
+  for (std::size_t i = 0; i < sim.spheres().size(); ++i) hash.add(sim.spheres().position_m[i], sim.spheres().radius_m[i]);
+  // An orthonormal frame of the cylinder axis.
+  const Vec3 a = reg.axis;
+  const Vec3 e1 = normalized(std::abs(a.x) < 0.9 ? cross(a, Vec3{1, 0, 0}) : cross(a, Vec3{0, 1, 0}));
+  const Vec3 e2 = cross(a, e1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Vec3> placed;
+  while (next < todo.size()) {
+    const auto& req = todo[next];
+    const auto& t = templates[req.shape];
+    const double b = t.bounding_radius_m;
+    bool ok = false;
+    for (std::uint64_t k = 0; k < max_attempts && !ok; ++k) {
+      // Body centre uniform in the region shrunk by the bounding radius (when it fits), so that
+      // few trials fall outside.
+      Vec3 pos;
+      if (reg.kind == Region::Kind::Box) {
+        for (int ax = 0; ax < 3; ++ax) {
+          double lo = reg.min_m[ax] + b, hi = reg.max_m[ax] - b;
+          if (lo > hi) lo = hi = 0.5 * (reg.min_m[ax] + reg.max_m[ax]);
+          pos[ax] = lo + (hi - lo) * u(rng);
+        }
+      } else {
+        const double rr = std::max(0.0, reg.radius_m - b) * std::sqrt(u(rng));
+        const double phi = 2.0 * std::numbers::pi * u(rng);
+        double lo = b, hi = reg.height_m - b;
+        if (lo > hi) lo = hi = 0.5 * reg.height_m;
+        pos = reg.base_m + (lo + (hi - lo) * u(rng)) * a + rr * std::cos(phi) * e1 + rr * std::sin(phi) * e2;
+      }
+      const Quat q = t.sphere_count() > 1 ? random_orientation(rng) : Quat{};
+      placed.clear();
+      ok = true;
+      for (std::size_t s = 0; s < t.sphere_count() && ok; ++s) {
+        const Vec3 c = pos + rotate(q, t.offsets_m[s]);
+        const double r = t.radii_m[s];
+        if (!reg.contains(c, r) || hash.overlaps(c, r)) ok = false;
+        placed.push_back(c);
+      }
+      if (!ok) continue;
+      for (std::size_t s = 0; s < t.sphere_count(); ++s) hash.add(placed[s], t.radii_m[s]);
+      sim::BodyInit bi;
+      bi.shape = req.shape;
+      bi.material = req.material;
+      bi.position_m = pos;
+      bi.orientation = q;
+      sim.add_body(bi);
+    }
+    if (!ok) break;
+    ++next;
+  }
+  return next;
+}
+
 }  // namespace biodem::scenario

@@ -34,6 +34,22 @@ std::vector<InsertionRequest> plan_population(std::uint64_t count, const std::ve
 std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& region, const std::vector<InsertionRequest>& todo,
                         std::size_t next, std::uint64_t max_attempts, std::mt19937_64& rng);
 
+/// A region of any scene (issue 9): an axis-aligned box, or a finite cylinder from `base_m`
+/// along the unit `axis` over `height_m`. Every sphere of an inserted body lies inside it.
+struct Region {
+  enum class Kind { Box, Cylinder };
+  Kind kind = Kind::Box;
+  Vec3 min_m, max_m;             // box
+  Vec3 base_m, axis{0, 1, 0};    // cylinder: centre of its base circle, unit axis
+  double radius_m = 0.0, height_m = 0.0;
+  double volume_m3() const;
+  bool contains(const Vec3& c, double r) const;  // the whole sphere inside
+};
+
+/// As insert_wave for the drum, into any region (uniform positions in the region).
+std::size_t insert_wave(sim::Simulation& sim, const Region& region, const std::vector<InsertionRequest>& todo,
+                        std::size_t next, std::uint64_t max_attempts, std::mt19937_64& rng);
+
 Quat random_orientation(std::mt19937_64& rng);
 
 }  // namespace biodem::scenario

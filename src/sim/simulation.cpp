@@ -21,20 +21,23 @@ Simulation::Simulation(std::vector<shapes::ClumpTemplate> templates, std::vector
 }
 
 std::uint32_t Simulation::add_wall(const WallSpec& w) {
-  const std::size_t nw_old = walls_.size(), n = spheres_.size();
   walls_.push_back(w);
-  std::vector<contact::ContactHistory> h(n * walls_.size());
-  std::vector<std::uint8_t> t(n * walls_.size(), 0);
-  for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t k = 0; k < nw_old; ++k) {
-      h[i * walls_.size() + k] = wall_history_[i * nw_old + k];
-      t[i * walls_.size() + k] = wall_touching_[i * nw_old + k];
-    }
-  wall_history_.swap(h);
-  wall_touching_.swap(t);
+  wall_initial_point_m_.push_back(w.geometry.point_m);
   apply_drum_rotation();
+  update_wall_motion(time_s_);
+  list_valid_ = false;  // the candidate table is rebuilt with the neighbour list
   forces_valid_ = false;
   return static_cast<std::uint32_t>(walls_.size() - 1);
+}
+
+void Simulation::update_wall_motion(double t) {
+  for (std::size_t k = 0; k < walls_.size(); ++k) {
+    WallSpec& w = walls_[k];
+    if (!w.translates()) continue;
+    const double tau = std::clamp(t - w.move_start_s, 0.0, w.move_end_s - w.move_start_s);
+    w.geometry.point_m = wall_initial_point_m_[k] + tau * w.translation_velocity_m_s;
+    w.geometry.velocity_m_s = (t >= w.move_start_s && t < w.move_end_s) ? w.translation_velocity_m_s : Vec3{};
+  }
 }
 
 void Simulation::apply_drum_rotation() {
@@ -75,10 +78,7 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
     spheres_.body_mass_kg.push_back(mass);
     spheres_.force_n.push_back({});
     spheres_.torque_n_m.push_back({});
-    for (std::size_t w = 0; w < walls_.size(); ++w) {
-      wall_history_.push_back({});
-      wall_touching_.push_back(0);
-    }
+    wall_contacts_.start.push_back(wall_contacts_.start.back());  // no candidates until the next build
   }
   list_valid_ = false;
   forces_valid_ = false;
@@ -109,7 +109,7 @@ void Simulation::update_spheres_from_bodies() {
 }
 
 void Simulation::reorder_spatially() {
-  const std::size_t nb = bodies_.size(), ns = spheres_.size(), nw = walls_.size();
+  const std::size_t nb = bodies_.size(), ns = spheres_.size();
   if (nb < 2) return;
   double r_max = 0.0;
   for (double r : spheres_.radius_m) r_max = std::max(r_max, r);
@@ -172,18 +172,115 @@ void Simulation::reorder_spatially() {
   perm_s(nss.torque_n_m, spheres_.torque_n_m);
   nss.body.resize(ns);
   for (std::size_t q = 0; q < ns; ++q) nss.body[q] = new_of_old_body[spheres_.body[old_sphere_of_new[q]]];
-  std::vector<contact::ContactHistory> wh(ns * nw);
-  std::vector<std::uint8_t> wt(ns * nw);
-  for (std::size_t q = 0; q < ns; ++q)
-    for (std::size_t w = 0; w < nw; ++w) {
-      wh[q * nw + w] = wall_history_[old_sphere_of_new[q] * nw + w];
-      wt[q * nw + w] = wall_touching_[old_sphere_of_new[q] * nw + w];
+  WallContacts wc;
+  wc.start.assign(ns + 1, 0);
+  for (std::size_t q = 0; q < ns; ++q) {
+    const std::uint32_t o = old_sphere_of_new[q];
+    for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+      wc.wall.push_back(wall_contacts_.wall[k]);
+      wc.history.push_back(wall_contacts_.history[k]);
+      wc.touching.push_back(wall_contacts_.touching[k]);
     }
+    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
   bodies_ = std::move(nbs);
   spheres_ = std::move(nss);
-  wall_history_.swap(wh);
-  wall_touching_.swap(wt);
+  wall_contacts_ = std::move(wc);
   list_.renumber(new_of_old_sphere);
+}
+
+void Simulation::apply_sinks() {
+  if (sinks_.empty()) return;
+  const std::size_t nb = bodies_.size();
+  std::vector<std::uint8_t> flag(nb, 0);
+  bool any = false;
+  for (std::size_t b = 0; b < nb; ++b)
+    for (const auto& k : sinks_)
+      if (k.contains(bodies_.position_m[b])) {
+        flag[b] = 1;
+        any = true;
+        break;
+      }
+  if (any) remove_bodies(flag);
+}
+
+std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
+  const std::size_t nb = bodies_.size(), ns = spheres_.size();
+  constexpr std::uint32_t kGone = neighbor::VerletList::kRemoved;
+  std::vector<std::uint32_t> keep_body, new_of_old_sphere(ns, kGone), old_sphere_of_new;
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (b < remove.size() && remove[b]) {
+      ++removed_bodies_;
+      removed_mass_kg_ += bodies_.mass_kg[b];
+      continue;
+    }
+    keep_body.push_back(static_cast<std::uint32_t>(b));
+  }
+  const std::size_t removed = nb - keep_body.size();
+  if (removed == 0) return 0;
+  state::BodyStore nbs;
+  auto keep_b = [&](auto& dst, const auto& src) {
+    dst.resize(keep_body.size());
+    for (std::size_t q = 0; q < keep_body.size(); ++q) dst[q] = src[keep_body[q]];
+  };
+  keep_b(nbs.position_m, bodies_.position_m);
+  keep_b(nbs.velocity_m_s, bodies_.velocity_m_s);
+  keep_b(nbs.angular_velocity_rad_s, bodies_.angular_velocity_rad_s);
+  keep_b(nbs.angular_momentum_kg_m2_s, bodies_.angular_momentum_kg_m2_s);
+  keep_b(nbs.orientation, bodies_.orientation);
+  keep_b(nbs.mass_kg, bodies_.mass_kg);
+  keep_b(nbs.inertia_kg_m2, bodies_.inertia_kg_m2);
+  keep_b(nbs.shape, bodies_.shape);
+  keep_b(nbs.id, bodies_.id);
+  keep_b(nbs.sphere_count, bodies_.sphere_count);
+  keep_b(nbs.force_n, bodies_.force_n);
+  keep_b(nbs.torque_n_m, bodies_.torque_n_m);
+  nbs.first_sphere.resize(keep_body.size());
+  for (std::size_t q = 0; q < keep_body.size(); ++q) {
+    nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+    const std::uint32_t s0 = bodies_.first_sphere[keep_body[q]];
+    for (std::uint32_t s = s0; s < s0 + nbs.sphere_count[q]; ++s) {
+      new_of_old_sphere[s] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+      old_sphere_of_new.push_back(s);
+    }
+  }
+  const std::size_t ns_new = old_sphere_of_new.size();
+  state::SphereStore nss;
+  auto keep_s = [&](auto& dst, const auto& src) {
+    dst.resize(ns_new);
+    for (std::size_t q = 0; q < ns_new; ++q) dst[q] = src[old_sphere_of_new[q]];
+  };
+  keep_s(nss.position_m, spheres_.position_m);
+  keep_s(nss.velocity_m_s, spheres_.velocity_m_s);
+  keep_s(nss.angular_velocity_rad_s, spheres_.angular_velocity_rad_s);
+  keep_s(nss.radius_m, spheres_.radius_m);
+  keep_s(nss.offset_body_m, spheres_.offset_body_m);
+  keep_s(nss.material, spheres_.material);
+  keep_s(nss.body_mass_kg, spheres_.body_mass_kg);
+  keep_s(nss.force_n, spheres_.force_n);
+  keep_s(nss.torque_n_m, spheres_.torque_n_m);
+  nss.body.resize(ns_new);
+  for (std::size_t q = 0; q < keep_body.size(); ++q)
+    for (std::uint32_t s = nbs.first_sphere[q]; s < nbs.first_sphere[q] + nbs.sphere_count[q]; ++s)
+      nss.body[s] = static_cast<std::uint32_t>(q);
+  WallContacts wc;
+  wc.start.assign(ns_new + 1, 0);
+  const bool have_wc = wall_contacts_.start.size() == ns + 1;
+  for (std::size_t q = 0; q < ns_new; ++q) {
+    const std::uint32_t o = old_sphere_of_new[q];
+    if (have_wc)
+      for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+        wc.wall.push_back(wall_contacts_.wall[k]);
+        wc.history.push_back(wall_contacts_.history[k]);
+        wc.touching.push_back(wall_contacts_.touching[k]);
+      }
+    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
+  bodies_ = std::move(nbs);
+  spheres_ = std::move(nss);
+  wall_contacts_ = std::move(wc);
+  list_.renumber(new_of_old_sphere);  // drops the removed spheres' pairs; forces a rebuild
+  return removed;
 }
 
 void Simulation::rebuild_neighbors() {
@@ -194,29 +291,63 @@ void Simulation::rebuild_neighbors() {
 void Simulation::update_wall_candidates() {
   const std::size_t n = spheres_.size(), nw = walls_.size();
   const auto& at = list_.built_at();
-  wall_candidates_.assign(n, 0);
-  if (nw > 64) {  // masks hold 64 walls: beyond that every wall is checked every step
-    std::fill(wall_candidates_.begin(), wall_candidates_.end(), ~std::uint64_t{0});
-    return;
-  }
+  const WallContacts& old = wall_contacts_;
+  const bool have_old = old.start.size() == n + 1;
+  // Walls enlarged by the reach (radius + skin), so that a sphere sliding over a disc rim or a
+  // cylinder end before the next build is still a candidate.
+  auto candidate = [&](std::size_t i, std::size_t w) {
+    if (walls_[w].translates()) return true;  // a moving wall may come to any sphere
+    const double reach = spheres_.radius_m[i] + skin_m_;
+    walls::WallGeometry g = walls_[w].geometry;
+    if (g.kind == walls::Kind::Disc) g.radius_m += reach;
+    if (g.kind == walls::Kind::Rectangle) {
+      g.half_u_m += reach;
+      g.half_v_m += reach;
+    }
+    if (g.kind == walls::Kind::Cylinder && g.length_m > 0.0) {
+      g.point_m -= reach * g.normal;
+      g.length_m += 2.0 * reach;
+    }
+    return walls::wall_hit(g, at[i], reach).touching;
+  };
+  auto old_slot = [&](std::size_t i, std::size_t w) -> std::int64_t {
+    if (!have_old) return -1;
+    for (std::uint32_t k = old.start[i]; k < old.start[i + 1]; ++k)
+      if (old.wall[k] == w) return k;
+    return -1;
+  };
+  // Pass 1: count the candidates of each sphere; pass 2: fill them, carrying the history over.
+  std::vector<std::uint32_t> count(n + 1, 0);
 #pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
-    std::uint64_t m = 0;
-    const double reach = spheres_.radius_m[i] + skin_m_;
+    std::uint32_t c = 0;
     for (std::size_t w = 0; w < nw; ++w) {
-      // Enlarge the finite extents by the reach too, so that a sphere sliding over a disc rim or
-      // a cylinder end before the next build is still a candidate.
-      walls::WallGeometry g = walls_[w].geometry;
-      if (g.kind == walls::Kind::Disc) g.radius_m += reach;
-      if (g.kind == walls::Kind::Cylinder && g.length_m > 0.0) {
-        g.point_m -= reach * g.normal;
-        g.length_m += 2.0 * reach;
-      }
-      const walls::WallHit h = walls::wall_hit(g, at[i], reach);
-      if (h.touching || wall_touching_[i * nw + w]) m |= std::uint64_t{1} << w;
+      const std::int64_t k = old_slot(i, w);
+      if (candidate(i, w) || (k >= 0 && old.touching[k])) ++c;
     }
-    wall_candidates_[i] = m;
+    count[i + 1] = c;
   }
+  WallContacts wc;
+  wc.start.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) wc.start[i + 1] = wc.start[i] + count[i + 1];
+  wc.wall.resize(wc.start[n]);
+  wc.history.assign(wc.start[n], {});
+  wc.touching.assign(wc.start[n], 0);
+#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t q = wc.start[i];
+    for (std::size_t w = 0; w < nw; ++w) {
+      const std::int64_t k = old_slot(i, w);
+      if (!(candidate(i, w) || (k >= 0 && old.touching[k]))) continue;
+      wc.wall[q] = static_cast<std::uint32_t>(w);
+      if (k >= 0) {
+        wc.history[q] = old.history[k];
+        wc.touching[q] = old.touching[k];
+      }
+      ++q;
+    }
+  }
+  wall_contacts_ = std::move(wc);
 }
 
 void Simulation::refresh() {
@@ -226,18 +357,19 @@ void Simulation::refresh() {
     skin_m_ = spheres_.size() ? 0.5 * rmin : 1e-3;  // a quarter of the smallest diameter (io::resolved_skin_m)
   }
   list_.configure(domain_, skin_m_);
+  update_wall_motion(time_s_);
   update_spheres_from_bodies();
   rebuild_neighbors();
   list_valid_ = true;
   // Forces for the first half kick; this is not a time step, so the contact history (tangential
   // and rolling springs) must not advance: it is restored after the evaluation.
   const auto pair_history = list_.history;
-  const auto wall_history = wall_history_;
+  const auto wall_history = wall_contacts_.history;
   compute_forces();
   for (std::size_t k = 0; k < pair_history.size(); ++k)
     if (list_.touching[k]) list_.history[k] = pair_history[k];
   for (std::size_t k = 0; k < wall_history.size(); ++k)
-    if (wall_touching_[k]) wall_history_[k] = wall_history[k];
+    if (wall_contacts_.touching[k]) wall_contacts_.history[k] = wall_history[k];
   reduce_to_bodies();
   forces_valid_ = true;
 }
@@ -251,7 +383,7 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
   skin_m_ = skin_m;
   list_.configure(domain_, skin_m_);
   list_.restore_bookkeeping(std::move(list_built_at), list_builds);
-  update_wall_candidates();
+  update_wall_motion(time_s_);  // the wall contact table itself comes from the checkpoint
   list_valid_ = true;
   forces_valid_ = true;
 }
@@ -274,6 +406,8 @@ void Simulation::step() {
           bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
     }
   }
+  update_wall_motion(time_s_ + dt);
+  apply_sinks();
   update_spheres_from_bodies();
   if (list_.needs_rebuild(spheres_)) {
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
@@ -281,8 +415,9 @@ void Simulation::step() {
   }
   compute_forces();
   reduce_to_bodies();
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) {
+  const std::size_t nb_kept = bodies_.size();  // a sink may have removed bodies
+#pragma omp parallel for proc_bind(close) schedule(static) if (nb_kept >= kParallelThreshold)
+  for (std::size_t b = 0; b < nb_kept; ++b) {
     bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
     const Vec3 inertia = bodies_.inertia_kg_m2[b];
     if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
@@ -360,7 +495,7 @@ void Simulation::compute_forces_impl() {
   }
 
   // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
-  const std::size_t nw = walls_.size();
+  auto& wc = wall_contacts_;
 #pragma omp parallel for proc_bind(close) schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
@@ -369,17 +504,14 @@ void Simulation::compute_forces_impl() {
       f -= L.force_i[k];
       t += L.torque_j[k];
     }
-    for (std::uint64_t mask = wall_candidates_[i]; mask != 0; mask &= mask - 1) {
-      const std::size_t w = static_cast<std::size_t>(__builtin_ctzll(mask));
-      if (w >= nw) break;
-      const WallSpec& ws = walls_[w];
+    for (std::uint32_t slot = wc.start[i]; slot < wc.start[i + 1]; ++slot) {
+      const WallSpec& ws = walls_[wc.wall[slot]];
       const double ri = s.radius_m[i];
       const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
-      const std::size_t slot = i * nw + w;
       if (!hit.touching) {
-        if (wall_touching_[slot]) {
-          wall_touching_[slot] = 0;
-          wall_history_[slot] = {};
+        if (wc.touching[slot]) {
+          wc.touching[slot] = 0;
+          wc.history[slot] = {};
         }
         continue;
       }
@@ -390,8 +522,8 @@ void Simulation::compute_forces_impl() {
           hit.normal, hit.gap_m, ri, s.body_mass_kg[i], s.velocity_m_s[i], s.angular_velocity_rad_s[i], v_wall, w_wall);
       const contact::PairParams& p = pairs_(s.material[i], ws.material);
       const double area = Cohesion ? contact::sjkr_area_sphere_wall(ri, hit.gap_m) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wall_history_[slot], area, dt);
-      wall_touching_[slot] = 1;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wc.history[slot], area, dt);
+      wc.touching[slot] = 1;
       f += out.force_i;
       t += out.torque_i;
       ++wall_contacts;

@@ -32,6 +32,37 @@ struct WallSpec {
   std::uint16_t material = 0;
   bool drum_wall = false;            // turns with the drum when rotation is on
   double drum_sign = 1.0;            // +1 / -1: orientation of the wall normal along the drum axis
+  // Prescribed translation: the wall moves at translation_velocity_m_s from move_start_s to
+  // move_end_s (simulation time) and rests before and after; its position is a function of the
+  // time only (point at t = initial point + velocity * clamp(t - start, 0, end - start)).
+  Vec3 translation_velocity_m_s;
+  double move_start_s = 0.0, move_end_s = 0.0;
+  bool translates() const { return move_end_s > move_start_s && norm2(translation_velocity_m_s) > 0.0; }
+};
+
+/// A region that removes the bodies whose centre of mass enters it (issue 9: particles that
+/// fall off a heap's base plate or out of a shear box). Removed bodies are counted with their mass.
+struct SinkSpec {
+  enum class Kind { BelowPlane, OutsideBox };
+  Kind kind = Kind::BelowPlane;
+  Vec3 point_m;          // below_plane: a point on the plane
+  Vec3 normal{0, 1, 0};  // below_plane: unit normal; bodies on the -normal side are removed
+  Vec3 min_m, max_m;     // outside_box: bodies outside [min, max] are removed
+  bool contains(const Vec3& x) const {
+    if (kind == Kind::BelowPlane) return dot(x - point_m, normal) < 0.0;
+    return x.x < min_m.x || x.y < min_m.y || x.z < min_m.z || x.x > max_m.x || x.y > max_m.y || x.z > max_m.z;
+  }
+};
+
+/// Sparse wall contact table (CSR by sphere): the walls each sphere may touch before the next
+/// neighbour build (candidates), with their contact history. Walls within reach (radius + skin)
+/// at the last build, walls still touching, and every translating wall are candidates; memory
+/// is per candidate, not per sphere and wall, so any number of walls works.
+struct WallContacts {
+  std::vector<std::uint32_t> start{0};  // n_spheres + 1
+  std::vector<std::uint32_t> wall;
+  std::vector<contact::ContactHistory> history;
+  std::vector<std::uint8_t> touching;
 };
 
 struct BodyInit {
@@ -51,6 +82,15 @@ class Simulation {
   // --- set-up ---
   std::uint32_t add_wall(const WallSpec& w);
   std::uint32_t add_body(const BodyInit& b);
+  void add_sink(const SinkSpec& s) { sinks_.push_back(s); }
+  const std::vector<SinkSpec>& sinks() const { return sinks_; }
+  /// Removes the bodies flagged (by storage index) with their spheres and contacts; the others
+  /// keep their stable ids and their contact history. Counts them and their mass as removed.
+  std::size_t remove_bodies(const std::vector<std::uint8_t>& remove);
+  /// Bodies removed so far (sinks and remove_bodies) and their total mass.
+  std::uint64_t removed_bodies() const { return removed_bodies_; }
+  double removed_mass_kg() const { return removed_mass_kg_; }
+  void set_removed(std::uint64_t n, double mass_kg) { removed_bodies_ = n; removed_mass_kg_ = mass_kg; }
   void set_domain(const neighbor::Domain& d) { domain_ = d; }
   void set_skin(double skin_m) { skin_m_ = skin_m; }
   /// Spatial re-sorting period in neighbour-list builds (0: never).
@@ -76,6 +116,9 @@ class Simulation {
   /// The GPU engine downloaded new body states: sphere arrays are recomputed from them on access.
   void mark_spheres_stale() { spheres_stale_ = true; }
   void set_contact_count(std::size_t n) { contacts_ = n; }
+  /// Recomputes the wall candidates of every sphere from the list's build positions, keeping
+  /// the entries (and history) of touching walls (the GPU engine's download uses it).
+  void refresh_wall_candidates() { update_wall_candidates(); }
   const state::SphereStore& spheres() const {
     if (spheres_stale_) const_cast<Simulation*>(this)->update_spheres_from_bodies();
     return spheres_;
@@ -90,8 +133,8 @@ class Simulation {
   const std::vector<WallSpec>& walls() const { return walls_; }
   const neighbor::VerletList& neighbor_list() const { return list_; }
   neighbor::VerletList& neighbor_list_mut() { return list_; }
-  std::vector<contact::ContactHistory>& wall_history() { return wall_history_; }
-  std::vector<std::uint8_t>& wall_touching() { return wall_touching_; }
+  WallContacts& wall_contacts() { return wall_contacts_; }
+  const WallContacts& wall_contacts() const { return wall_contacts_; }
   const contact::PairTable& pair_table() const { return pairs_; }
   double skin_m() const { return skin_m_; }
   const neighbor::Domain& domain() const { return domain_; }
@@ -126,6 +169,10 @@ class Simulation {
   /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2
   /// between builds, so no other wall can be touched before the next build).
   void update_wall_candidates();
+  /// Removes the bodies inside a sink (called after the drift of each step).
+  void apply_sinks();
+  /// Places translating walls where their schedule puts them at time t and sets their velocity.
+  void update_wall_motion(double t);
 
   std::vector<shapes::ClumpTemplate> templates_;
   std::vector<double> density_;
@@ -138,9 +185,11 @@ class Simulation {
   neighbor::Domain domain_;
   neighbor::VerletList list_;
   double skin_m_ = -1.0;
-  std::vector<contact::ContactHistory> wall_history_;  // [sphere * n_walls + wall]
-  std::vector<std::uint8_t> wall_touching_;
-  std::vector<std::uint64_t> wall_candidates_;  // bit w set: wall w is within reach of the sphere
+  WallContacts wall_contacts_;
+  std::vector<Vec3> wall_initial_point_m_;  // point_m of each wall at t = 0 (translating walls)
+  std::vector<SinkSpec> sinks_;
+  std::uint64_t removed_bodies_ = 0;
+  double removed_mass_kg_ = 0.0;
   bool list_valid_ = false;
   bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;

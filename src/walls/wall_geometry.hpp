@@ -12,7 +12,7 @@
 
 namespace biodem::walls {
 
-enum class Kind { Plane, Disc, Cylinder };
+enum class Kind { Plane, Disc, Cylinder, Rectangle };
 
 struct WallGeometry {
   Kind kind = Kind::Plane;
@@ -21,6 +21,13 @@ struct WallGeometry {
   double radius_m = 0.0;   // disc, cylinder
   double length_m = 0.0;   // cylinder: finite extent from point_m along the axis (0 = infinite)
   double angular_velocity_rad_s = 0.0;  // prescribed rotation about the symmetry axis (point_m, normal)
+  // Rectangle: a finite plate centred on point_m, sides 2 half_u_m along edge_u and 2 half_v_m
+  // along normal x edge_u (edge_u is a unit vector perpendicular to normal).
+  Vec3 edge_u{1, 0, 0};
+  double half_u_m = 0.0, half_v_m = 0.0;
+  // Current prescribed translation velocity (the engine sets it from the wall's motion schedule
+  // and moves point_m; zero for a wall at rest).
+  Vec3 velocity_m_s;
 };
 
 struct WallHit {
@@ -29,9 +36,13 @@ struct WallHit {
   Vec3 normal;          // from wall to particle
 };
 
-/// Distance of a sphere centre to the wall surface and the contact normal. For the inside of a
-/// cylinder the particle side is the inside; for a disc, points whose projection falls outside
-/// the disc radius do not touch (the rim is not modelled).
+/// Distance of a sphere centre to the wall surface and the contact normal. For the inside of an
+/// infinite cylinder (length_m = 0, the drum mantle) the particle side is the inside; a finite
+/// cylinder (length_m > 0) is an open thin tube touched from whichever side the centre is on
+/// (inside or outside), so a lifted tube never drags outside particles in. A rectangle is a thin
+/// plate touched from either side. For a disc or a rectangle, points whose projection falls
+/// outside the face do not touch, and a finite cylinder ends at its end circles (rims and edges
+/// are not modelled).
 BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
   WallHit h;
   switch (w.kind) {
@@ -55,17 +66,32 @@ BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r
       const double rho = norm(radial);
       h.gap_m = w.radius_m - rho;
       h.normal = rho > 0.0 ? radial / (-rho) : Vec3{};
+      if (w.length_m > 0.0 && h.gap_m < 0.0) {  // outside a finite tube: pushed outwards
+        h.gap_m = -h.gap_m;
+        h.normal = -h.normal;
+      }
       h.touching = h.gap_m < r && rho > 0.0;
+      return h;
+    }
+    case Kind::Rectangle: {
+      const Vec3 d = c - w.point_m;
+      const double g = dot(d, w.normal);
+      const double u = dot(d, w.edge_u), v = dot(d, cross(w.normal, w.edge_u));
+      if (u > w.half_u_m || u < -w.half_u_m || v > w.half_v_m || v < -w.half_v_m) return h;
+      h.gap_m = g < 0.0 ? -g : g;
+      h.normal = g < 0.0 ? -w.normal : w.normal;
+      h.touching = h.gap_m < r;
       return h;
     }
   }
   return h;
 }
 
-/// Surface velocity of the wall at point p: omega x (p - axis point), omega along the symmetry axis.
+/// Surface velocity of the wall at point p: its translation velocity plus omega x (p - axis
+/// point), omega along the symmetry axis.
 BIODEM_HD inline Vec3 wall_velocity(const WallGeometry& w, const Vec3& p) {
-  if (w.angular_velocity_rad_s == 0.0) return {};
-  return cross(w.angular_velocity_rad_s * w.normal, p - w.point_m);
+  if (w.angular_velocity_rad_s == 0.0) return w.velocity_m_s;
+  return w.velocity_m_s + cross(w.angular_velocity_rad_s * w.normal, p - w.point_m);
 }
 
 }  // namespace biodem::walls

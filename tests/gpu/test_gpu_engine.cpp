@@ -341,8 +341,7 @@ TEST(GpuEngine, HistoryRoundTripBetweenEngines) {
   eb->download(true);
   // c: a third copy, continued on the CPU from b's downloaded state.
   c->bodies_mut() = b->bodies();
-  c->wall_history() = b->wall_history();
-  c->wall_touching() = b->wall_touching();
+  c->wall_contacts() = b->wall_contacts();
   c->neighbor_list_mut() = b->neighbor_list();
   c->spheres_mut() = b->spheres();
   c->restore_after_checkpoint(b->time_s(), b->step_count(), b->drum_rotating(), b->skin_m(),

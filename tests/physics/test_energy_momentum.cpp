@@ -89,8 +89,10 @@ std::unordered_set<std::uint64_t> touching_keys(sim::Simulation& s) {
         const std::uint64_t a = id(i), b = id(L.j[k]);
         keys.insert(std::min(a, b) * n + std::max(a, b));
       }
-  for (std::uint64_t q = 0; q < s.wall_touching().size(); ++q)
-    if (s.wall_touching()[q]) keys.insert(n * n + id(q / nw) * nw + q % nw);
+  const auto& wc = s.wall_contacts();
+  for (std::uint64_t i = 0; i < n; ++i)
+    for (std::uint32_t q = wc.start[i]; q < wc.start[i + 1]; ++q)
+      if (wc.touching[q]) keys.insert(n * n + id(i) * nw + wc.wall[q]);
   return keys;
 }
 

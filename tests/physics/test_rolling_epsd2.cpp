@@ -140,7 +140,7 @@ InclineResult incline(double tan_theta) {
   r.late_displacement_m = x - x_half;
   r.acceleration_m_s2 = fit_slope(t, v);
   r.slip_m_s = s.bodies().velocity_m_s[0].x - s.bodies().angular_velocity_rad_s[0].y * kR;
-  r.rolling_torque_n_m = norm(s.wall_history()[0].m_r);
+  r.rolling_torque_n_m = norm(s.wall_contacts().history[0].m_r);  // one sphere, one wall
   r.rolling_limit_n_m = kMuR * kR * sphere_mass_kg(kR, kBiomass.density_kg_m3) * kG * std::cos(th);
   return r;
 }

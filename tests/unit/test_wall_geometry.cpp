@@ -1,0 +1,65 @@
+// Finite walls (issue 9): the rectangle is a thin plate touched from either side within its
+// sides; the finite cylinder is an open thin tube touched from inside and outside; translation
+// velocity adds to the surface velocity.
+#include <gtest/gtest.h>
+
+#include "walls/wall_geometry.hpp"
+
+using namespace biodem;
+using namespace biodem::walls;
+
+TEST(WallGeometry, RectangleBothSidesWithinItsSides) {
+  WallGeometry g;
+  g.kind = Kind::Rectangle;
+  g.point_m = {1, 2, 3};
+  g.normal = {0, 0, 1};
+  g.edge_u = {1, 0, 0};
+  g.half_u_m = 0.5;  // x in [0.5, 1.5]
+  g.half_v_m = 0.1;  // y in [1.9, 2.1] (v = n x u = +y)
+  WallHit h = wall_hit(g, {1.4, 2.05, 3.3}, 0.4);
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.3, 1e-12);
+  EXPECT_NEAR(h.normal.z, 1.0, 1e-15);
+  h = wall_hit(g, {1.4, 2.05, 2.8}, 0.4);  // below: pushed down
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.2, 1e-12);
+  EXPECT_NEAR(h.normal.z, -1.0, 1e-15);
+  EXPECT_FALSE(wall_hit(g, {1.6, 2.0, 3.1}, 0.4).touching);   // beyond the u side
+  EXPECT_FALSE(wall_hit(g, {1.0, 2.15, 3.1}, 0.4).touching);  // beyond the v side
+  EXPECT_FALSE(wall_hit(g, {1.0, 2.0, 3.5}, 0.4).touching);   // too far
+}
+
+TEST(WallGeometry, FiniteTubeTouchedFromInsideAndOutside) {
+  WallGeometry g;
+  g.kind = Kind::Cylinder;
+  g.point_m = {0, 1, 0};
+  g.normal = {0, 1, 0};
+  g.radius_m = 1.0;
+  g.length_m = 2.0;
+  WallHit h = wall_hit(g, {0.8, 2.0, 0.0}, 0.3);  // inside, 0.2 from the wall
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.2, 1e-12);
+  EXPECT_NEAR(h.normal.x, -1.0, 1e-15);
+  h = wall_hit(g, {0.0, 2.0, -1.1}, 0.3);  // outside, 0.1 from the wall
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.1, 1e-12);
+  EXPECT_NEAR(h.normal.z, -1.0, 1e-15);
+  EXPECT_FALSE(wall_hit(g, {0.8, 0.9, 0.0}, 0.3).touching);  // below its lower end
+  EXPECT_FALSE(wall_hit(g, {0.8, 3.1, 0.0}, 0.3).touching);  // above its upper end
+  g.length_m = 0.0;  // infinite (drum mantle): inside only, as before
+  h = wall_hit(g, {0.0, 2.0, -1.1}, 0.3);
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, -0.1, 1e-12);
+}
+
+TEST(WallGeometry, TranslationAddsToSurfaceVelocity) {
+  WallGeometry g;
+  g.kind = Kind::Plane;
+  g.normal = {0, 0, 1};
+  g.velocity_m_s = {0.0, 0.0, 0.2};
+  EXPECT_EQ(wall_velocity(g, {1, 0, 0}).z, 0.2);
+  g.angular_velocity_rad_s = 2.0;  // omega z x (1, 0, 0) = (0, 2, 0)
+  const Vec3 v = wall_velocity(g, {1, 0, 0});
+  EXPECT_NEAR(v.y, 2.0, 1e-15);
+  EXPECT_NEAR(v.z, 0.2, 1e-15);
+}
