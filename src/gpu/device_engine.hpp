@@ -51,6 +51,8 @@ class DeviceEngine {
   virtual void sync_walls() = 0;
   /// Device description for run.log ("NVIDIA H100 80GB HBM3 (sm_90, CUDA)").
   virtual std::string device_name() const = 0;
+  /// Steps between two neighbour-list checks (default 10); for tests and tuning.
+  virtual void set_check_every(std::uint32_t steps) = 0;
   /// Neighbour-list builds on the device so far.
   virtual std::uint64_t list_builds() const = 0;
   /// For tests: the pairs (i < j, storage indices) of the current device list, sorted, and the

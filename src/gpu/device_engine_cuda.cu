@@ -15,6 +15,7 @@ struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
   static auto exec() { return thrust::cuda::par; }
+  static auto exec_async() { return thrust::cuda::par_nosync; }  // launches do not wait for the GPU
 };
 }  // namespace biodem::gpu::cuda_device
 #include "gpu/engine_impl.hpp"

@@ -12,6 +12,7 @@ struct System {
   template <class T>
   using vector = thrust::omp::vector<T>;
   static auto exec() { return thrust::omp::par; }
+  static auto exec_async() { return thrust::omp::par; }
 };
 }  // namespace biodem::gpu::host_threads
 #include "gpu/engine_impl.hpp"

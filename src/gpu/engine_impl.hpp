@@ -117,10 +117,14 @@ class Engine final : public DeviceEngine {
   std::uint32_t nb() const { return static_cast<std::uint32_t>(b_mass_.size()); }
   std::uint32_t ns() const { return static_cast<std::uint32_t>(s_radius_.size()); }
   auto exec() const { return System::exec(); }
+  /// Kernel launch without a host synchronisation (the next reduction synchronises).
   template <class F>
   void launch(std::uint32_t n, F f) {
-    if (n) thrust::for_each_n(exec(), thrust::counting_iterator<std::uint32_t>(0), n, f);
+    if (n) thrust::for_each_n(System::exec_async(), thrust::counting_iterator<std::uint32_t>(0), n, f);
   }
+  /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
+  /// move more than half the skin before the next check.
+  void check_list();
 
   sim::Simulation& host_;
   std::string name_;
@@ -149,6 +153,13 @@ class Engine final : public DeviceEngine {
   double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
+  std::uint32_t check_every_ = 10, steps_until_check_ = 1;
+
+ public:
+  void set_check_every(std::uint32_t k) override {
+    check_every_ = std::max<std::uint32_t>(1, k);
+    steps_until_check_ = 1;
+  }
 };
 
 inline void Engine::sync_walls() {
@@ -288,6 +299,7 @@ inline void Engine::upload() {
 
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
+  steps_until_check_ = 1;  // the first step checks
   if (!host_.forces_current()) {
     // Set-up or after an insertion: forces for the first half kick, without advancing the
     // contact history (this is not a time step), as the CPU engine's refresh().
@@ -426,15 +438,40 @@ inline void Engine::step() {
   const double h = 0.5 * dt_;
   launch(nb(), KickDrift{body_arrays(), h, dt_});
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
-  const int moved = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                             thrust::counting_iterator<std::uint32_t>(ns()),
-                                             MovedTooFar{sphere_arrays(), 0.25 * skin_ * skin_}, 0,
-                                             thrust::maximum<int>());
-  if (moved) build_list();
+  if (--steps_until_check_ == 0) check_list();
   compute_forces();
   launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, h, true});
   host_.set_time_s(host_.time_s() + dt_);
   host_.set_step_count(host_.step_count() + 1);
+}
+
+inline void Engine::check_list() {
+  steps_until_check_ = check_every_;
+  if (ns() == 0) return;
+  const Motion m = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                            thrust::counting_iterator<std::uint32_t>(ns()), SphereMotion{sphere_arrays()},
+                                            Motion{}, MotionMax{});
+  const double half_skin = 0.5 * skin_;
+  const double moved = std::sqrt(m.disp2);
+  if (moved >= 1e150) {
+    check_finite();  // throws, naming the sphere
+  }
+  if (moved > half_skin)
+    throw Error("GPU engine: a sphere moved " + std::to_string(moved) + " m since the last neighbour-list build, more than half the skin (" +
+                std::to_string(half_skin) + " m), between two list checks at t = " + std::to_string(host_.time_s()) +
+                " s: contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
+  // Until the next check, k drifts later, a sphere moves at most k dt v; twice the largest
+  // current speed allows for acceleration in between. Rebuild if that could exceed half the
+  // skin, and check sooner than check_every_ steps when even a fresh list would not last.
+  const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
+  double room = half_skin - moved;
+  if (room < check_every_ * per_step) {
+    build_list();
+    room = half_skin;
+  }
+  if (per_step > 0.0)
+    steps_until_check_ = static_cast<std::uint32_t>(
+        std::clamp(std::floor(room / per_step), 1.0, static_cast<double>(check_every_)));
 }
 
 inline double Engine::kinetic_energy_j() {

@@ -102,12 +102,21 @@ struct SpheresFromBodies {
   }
 };
 
-/// 1 when sphere i moved more than half the skin since the last build (or is not finite).
-struct MovedTooFar {
+/// Largest squared displacement since the last build and largest squared sphere speed (a NaN
+/// displacement, from a non-finite position, counts as infinite).
+struct Motion {
+  double disp2 = 0.0, speed2 = 0.0;
+};
+struct SphereMotion {
   SphereArrays s;
-  double limit2;
-  BIODEM_HD int operator()(std::uint32_t i) const {
-    return norm2(s.position[i] - s.built_at[i]) <= limit2 ? 0 : 1;
+  BIODEM_HD Motion operator()(std::uint32_t i) const {
+    const double d2 = norm2(s.position[i] - s.built_at[i]);
+    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i])};
+  }
+};
+struct MotionMax {
+  BIODEM_HD Motion operator()(const Motion& a, const Motion& b) const {
+    return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2};
   }
 };
 

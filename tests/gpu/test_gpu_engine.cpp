@@ -303,24 +303,30 @@ TEST(GpuEngine, MomentumConservedAcrossPeriodicBoundary) {
   EXPECT_LT(norm(p1 - p0), 1e-12 * scale);
 }
 
-// The GPU engine's result does not depend on when its list is rebuilt (a different skin) nor on
-// the number of threads: bit-identical states. This is what makes a GPU run resume bit for bit.
+// The GPU engine's result does not depend on when its list is rebuilt (a different skin, a check
+// every step or every 10 steps with a displacement margin) nor on the number of threads:
+// bit-identical states. This is what makes a GPU run resume bit for bit.
 TEST(GpuEngine, ResultIndependentOfSkinAndThreads) {
-  auto run = [](double skin, int threads) {
+  auto run = [](double skin, int threads, std::uint32_t check_every) {
     const ScopedThreads scoped(threads);
     auto s = packing(skin);
     auto eng = gpu_engine(*s);
+    eng->set_check_every(check_every);
     eng->upload();
     for (int k = 0; k < 200; ++k) eng->step();
     eng->download(false);
     return std::make_pair(s->bodies().position_m, eng->list_builds());
   };
-  const auto a = run(0.25e-3, 1), b = run(0.6e-3, 2);
-  std::printf("[measured] device builds: skin 0.25 mm %llu, skin 0.6 mm %llu\n",
-              static_cast<unsigned long long>(a.second), static_cast<unsigned long long>(b.second));
-  EXPECT_NE(a.second, b.second) << "the two runs must rebuild at different steps for the test to mean anything";
+  const auto a = run(0.25e-3, 1, 1), b = run(0.6e-3, 2, 10), c = run(0.25e-3, 1, 10);
+  std::printf("[measured] device builds: skin 0.25 mm checked every step %llu, skin 0.6 mm every 10 steps %llu, "
+              "skin 0.25 mm every 10 steps %llu\n",
+              static_cast<unsigned long long>(a.second), static_cast<unsigned long long>(b.second),
+              static_cast<unsigned long long>(c.second));
+  EXPECT_NE(a.second, b.second) << "the runs must rebuild at different steps for the test to mean anything";
+  EXPECT_NE(a.second, c.second);
   ASSERT_EQ(a.first.size(), b.first.size());
   EXPECT_EQ(std::memcmp(a.first.data(), b.first.data(), a.first.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(a.first.data(), c.first.data(), a.first.size() * sizeof(Vec3)), 0);
 }
 
 // Checkpoint round trip between engines: the GPU state downloaded with its history into the
