@@ -1,9 +1,12 @@
 // The GPU engine on a CUDA device: the kernels of gpu/kernels.hpp launched through Thrust's CUDA
 // system. Compiled only when CMake finds a CUDA compiler (BIODEM_WITH_CUDA).
 #include <cuda_runtime.h>
+#include <thrust/for_each.h>
+#include <thrust/iterator/counting_iterator.h>
 #include <thrust/system/cuda/execution_policy.h>
 #include <thrust/system/cuda/vector.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -15,7 +18,10 @@ struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
   static auto exec() { return thrust::cuda::par; }
-  static auto exec_async() { return thrust::cuda::par_nosync; }  // launches do not wait for the GPU
+  template <class F>
+  static void launch(std::uint32_t n, const F& f) {  // does not wait for the GPU
+    thrust::for_each_n(thrust::cuda::par_nosync, thrust::counting_iterator<std::uint32_t>(0), n, f);
+  }
 };
 }  // namespace biodem::gpu::cuda_device
 #include "gpu/engine_impl.hpp"

@@ -1,18 +1,35 @@
 // The GPU engine on CPU threads: the kernels of gpu/kernels.hpp launched through Thrust's OpenMP
 // system. Slow next to the CPU engine (full neighbour list, every contact evaluated twice); it
 // exists so that the GPU engine's physics runs in the tests on machines without a GPU.
+#include <thrust/for_each.h>
+#include <thrust/iterator/counting_iterator.h>
+#include <thrust/system/cpp/execution_policy.h>
 #include <thrust/system/omp/execution_policy.h>
 #include <thrust/system/omp/vector.h>
 
+#include <cstdint>
 #include <memory>
+
+#include "core/parallel.hpp"
 
 #define BIODEM_GPU_NS host_threads
 namespace biodem::gpu::host_threads {
+// Kernels over at least kParallelThreshold indices run on the OpenMP threads, smaller ones on
+// the calling thread (as the CPU engine's loops: waking a team costs more than small work, and
+// on a loaded machine a waiting team stalls for milliseconds). Sorts, scans and reductions run
+// on the calling thread: O(n) once per list check, and their summation order then does not
+// depend on the thread count.
 struct System {
   template <class T>
   using vector = thrust::omp::vector<T>;
-  static auto exec() { return thrust::omp::par; }
-  static auto exec_async() { return thrust::omp::par; }
+  static auto exec() { return thrust::cpp::par; }
+  template <class F>
+  static void launch(std::uint32_t n, const F& f) {
+    if (n >= kParallelThreshold)
+      thrust::for_each_n(thrust::omp::par, thrust::counting_iterator<std::uint32_t>(0), n, f);
+    else
+      for (std::uint32_t i = 0; i < n; ++i) f(i);
+  }
 };
 }  // namespace biodem::gpu::host_threads
 #include "gpu/engine_impl.hpp"

@@ -117,10 +117,11 @@ class Engine final : public DeviceEngine {
   std::uint32_t nb() const { return static_cast<std::uint32_t>(b_mass_.size()); }
   std::uint32_t ns() const { return static_cast<std::uint32_t>(s_radius_.size()); }
   auto exec() const { return System::exec(); }
-  /// Kernel launch without a host synchronisation (the next reduction synchronises).
+  /// Kernel launch over n indices (on the GPU without a host synchronisation: the next
+  /// reduction synchronises).
   template <class F>
   void launch(std::uint32_t n, F f) {
-    if (n) thrust::for_each_n(System::exec_async(), thrust::counting_iterator<std::uint32_t>(0), n, f);
+    if (n) System::launch(n, f);
   }
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check.

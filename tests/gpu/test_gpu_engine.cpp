@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "gpu/device_engine.hpp"
 #include "physics/physics_support.hpp"
 
@@ -309,6 +310,12 @@ TEST(GpuEngine, MomentumConservedAcrossPeriodicBoundary) {
 TEST(GpuEngine, ResultIndependentOfSkinAndThreads) {
   auto run = [](double skin, int threads, std::uint32_t check_every) {
     const ScopedThreads scoped(threads);
+    // Small scene: lower the threshold so that the kernels really run on the OpenMP threads.
+    struct Threshold {
+      std::size_t old = kParallelThreshold;
+      Threshold() { set_parallel_threshold(0); }
+      ~Threshold() { set_parallel_threshold(old); }
+    } threshold;
     auto s = packing(skin);
     auto eng = gpu_engine(*s);
     eng->set_check_every(check_every);
