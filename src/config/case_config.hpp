@@ -168,9 +168,18 @@ struct Output {
   std::uint32_t frame_size_px = 512;
 };
 
+/// Model options of [contact] that apply to every pair.
+enum class WallRollingReference { Wall, Lab };
+struct ContactOptions {
+  // EPSD2 at a wall: "wall" feeds it the particle's angular velocity relative to the (turning)
+  // wall (SPEC 2.3, physically right); "lab" the particle's own, as LIGGGHTS 3.8.0 does.
+  WallRollingReference wall_rolling_reference = WallRollingReference::Wall;
+};
+
 struct CaseConfig {
   std::string source_path;
   RunConfig run;
+  ContactOptions contact;
   std::vector<Material> materials;
   std::vector<PairTable> pairs;
   std::vector<Shape> shapes;

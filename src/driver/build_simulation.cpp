@@ -78,6 +78,7 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
     sim.add_sink(s);
   }
   sim.set_skin(io::resolved_skin_m(c));
+  sim.set_wall_rolling_lab(c.contact.wall_rolling_reference == config::WallRollingReference::Lab);
   for (const auto& p : c.particles) {
     sim::BodyInit b;
     b.shape = static_cast<std::uint32_t>(p.shape);

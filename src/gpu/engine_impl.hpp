@@ -424,6 +424,7 @@ inline void Engine::compute_forces() {
     f.periodic = domain_.any_periodic();
     f.n = ns();
     f.dt = dt_;
+    f.wall_rolling_lab = host_.wall_rolling_lab();
     launch(ns(), f);
   };
   if (cohesion_) {

@@ -293,6 +293,7 @@ struct Forces {
   bool periodic;
   std::uint32_t n;
   double dt;
+  bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   BIODEM_HD void operator()(std::uint32_t a) const {
     Vec3 f, t;
     std::uint32_t count = 0;
@@ -351,7 +352,7 @@ struct Forces {
       }
       const Vec3 surface_point = xa - hit.gap_m * hit.normal;
       const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
-      const Vec3 w_wall = ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+      const Vec3 w_wall = wall_rolling_lab ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
       const contact::ContactGeometry geo = contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, s.body_mass[a],
                                                                          s.velocity[a], s.omega[a], v_wall, w_wall);
       const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];

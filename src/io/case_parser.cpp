@@ -264,6 +264,7 @@ class CaseParser {
     check_top_level();
     cfg_.source_path = file_;
     parse_run();
+    parse_contact();
     parse_materials();
     parse_pairs();
     parse_shapes();
@@ -300,7 +301,7 @@ class CaseParser {
   void warn(const std::string& msg) { warnings_.push_back(file_ + ": " + msg); }
 
   // ---------------------------------------------------------------- table access
-  static constexpr std::string_view kSingle[] = {"run", "insertion", "drum", "domain", "output"};
+  static constexpr std::string_view kSingle[] = {"run", "insertion", "drum", "domain", "output", "contact"};
   static constexpr std::string_view kArrays[] = {"material", "pair",     "shape", "population",
                                                  "wall",     "particle", "phase", "sink"};
 
@@ -317,7 +318,7 @@ class CaseParser {
         fail("unknown top-level key " + std::string(is_array ? "[[" : "[") + std::string(key) +
              (is_array ? "]]" : "]") + suggestion(key, all, "", "") + "; known tables: [run], [[material]], " +
              "[[pair]], [[shape]], [[population]], [insertion], [drum], [[wall]], [[particle]], [domain], " +
-             "[[phase]], [output], [[sink]]");
+             "[[phase]], [output], [[sink]], [contact]");
       }
       if (single && !v.is_table())
         fail("[" + std::string(key) + "] must be a single table, written [" + std::string(key) + "]");
@@ -381,6 +382,17 @@ class CaseParser {
     run.allow_large_dt = r.opt_bool("allow_large_dt").value_or(false);
     run.allow_initial_overlap = r.opt_bool("allow_initial_overlap").value_or(false);
     run.skin_m = r.opt_real("skin_m", kPositive);
+  }
+
+  void parse_contact() {
+    const toml::table* t = single("contact");
+    if (!t) return;
+    Reader r(file_, *t, "[contact]", false, {"wall_rolling_reference"});
+    if (auto ref = r.opt_string("wall_rolling_reference")) {
+      if (*ref == "wall") cfg_.contact.wall_rolling_reference = config::WallRollingReference::Wall;
+      else if (*ref == "lab") cfg_.contact.wall_rolling_reference = config::WallRollingReference::Lab;
+      else r.fail("wall_rolling_reference", "must be \"wall\" (relative to the wall) or \"lab\" (LIGGGHTS 3.8.0)");
+    }
   }
 
   void parse_materials() {

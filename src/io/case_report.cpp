@@ -157,6 +157,11 @@ std::string describe_case(const config::CaseConfig& c) {
   if (c.run.allow_large_dt) os << ", allow_large_dt";
   if (c.run.allow_initial_overlap) os << ", allow_initial_overlap";
   os << "\n";
+  os << "contact: wall_rolling_reference = "
+     << (c.contact.wall_rolling_reference == config::WallRollingReference::Lab
+             ? "lab (EPSD2 at walls with the particle's own spin, as LIGGGHTS 3.8.0)"
+             : "wall (EPSD2 at walls with the spin relative to the wall)")
+     << "\n";
 
   os << "materials:\n";
   for (const auto& m : c.materials) {

@@ -517,7 +517,8 @@ void Simulation::compute_forces_impl() {
       }
       const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
       const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
-      const Vec3 w_wall = ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+      // The wall's spin enters only EPSD2 (w_rel); "lab" drops it (LIGGGHTS 3.8.0 convention).
+      const Vec3 w_wall = wall_rolling_lab_ ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
       const contact::ContactGeometry g = contact::sphere_wall_geometry(
           hit.normal, hit.gap_m, ri, s.body_mass_kg[i], s.velocity_m_s[i], s.angular_velocity_rad_s[i], v_wall, w_wall);
       const contact::PairParams& p = pairs_(s.material[i], ws.material);

@@ -98,6 +98,10 @@ class Simulation {
   /// Drum walls turn at this angular velocity (rad/s, about the drum axis) while rotation is on.
   void set_drum_angular_velocity(double omega_rad_s) { drum_omega_ = omega_rad_s; apply_drum_rotation(); }
   void set_drum_rotation(bool on) { drum_rotating_ = on; apply_drum_rotation(); }
+  /// EPSD2 at walls with the particle's own angular velocity (LIGGGHTS 3.8.0, "lab") instead of
+  /// its velocity relative to the wall (default, SPEC 2.3).
+  void set_wall_rolling_lab(bool lab) { wall_rolling_lab_ = lab; }
+  bool wall_rolling_lab() const { return wall_rolling_lab_; }
   bool drum_rotating() const { return drum_rotating_; }
 
   // --- stepping ---
@@ -199,6 +203,7 @@ class Simulation {
   std::uint64_t steps_ = 0;
   std::size_t contacts_ = 0;
   bool cohesion_ = false, rolling_ = false;
+  bool wall_rolling_lab_ = false;
   std::size_t sort_every_builds_ = 16;
 };
 

@@ -661,3 +661,19 @@ TEST(CaseParser, OutputRules) {
   EXPECT_EQ(c.output.frame_size_px, 512u);
   EXPECT_DOUBLE_EQ(*c.output.frame_every_s, 0.02);
 }
+
+TEST(CaseParser, DeviceAndWallRollingReference) {
+  const auto def = io::parse_case(kSpecExample, "case.toml").config;
+  EXPECT_EQ(def.run.device, config::Device::Cpu);
+  EXPECT_EQ(def.contact.wall_rolling_reference, config::WallRollingReference::Wall);
+  const auto gpu = io::parse_case(edit(kSpecExample, "[run]", "[run]\ndevice = \"gpu\""), "case.toml").config;
+  EXPECT_EQ(gpu.run.device, config::Device::Gpu);
+  const auto lab = io::parse_case(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"lab\"\n\n[run]"),
+                                  "case.toml").config;
+  EXPECT_EQ(lab.contact.wall_rolling_reference, config::WallRollingReference::Lab);
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[run]\ndevice = \"tpu\""), "[run].device", "\"gpu\"");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"world\"\n\n[run]"),
+                     "[contact].wall_rolling_reference", "\"lab\"");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[contact]\nrolling_reference = \"lab\"\n\n[run]"),
+                     "[contact].rolling_reference");
+}
