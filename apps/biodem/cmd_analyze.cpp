@@ -287,7 +287,7 @@ Action register_analyze(CLI::App& app) {
                   "minimum (default " + fmt(analysis::kDefaultReboundFraction, "%g") + "; 0: a rise of h)");
   sub->add_flag("--sweep", o->sweep,
                 "also write threshold_sweep.csv: events and medians for thresholds 0.05 ... 2 deg "
-                "and rebound fractions 0, 0.1, 0.25, 0.5");
+                "and rebound fractions 0, 0.1, 0.15, 0.25, 0.5");
   sub->add_flag("--no-plots", o->no_plots, "write the CSV files only");
   return [o] { return run_analyze(*o); };
 }

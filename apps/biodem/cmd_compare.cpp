@@ -3,6 +3,7 @@
 // best, ties share a rank), as compare.csv and a printed table, plus overlaid cumulative
 // distributions (PNG + SVG). Each sample is analysed from its series.csv with the same options
 // as `biodem analyze`.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -72,7 +73,8 @@ std::string fmt(double v, const char* f = "%.4g") {
 void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo,
                  const std::vector<Sample>& samples, const fs::path& out_dir) {
   const std::vector<double> hs(analysis::kSweepThresholdsDeg.begin(), analysis::kSweepThresholdsDeg.end());
-  const auto rhos = analysis::sweep_rebound_fractions();
+  auto rhos = analysis::sweep_rebound_fractions();
+  if (std::find(rhos.begin(), rhos.end(), o.rebound_fraction) == rhos.end()) rhos.push_back(o.rebound_fraction);
   std::vector<std::vector<analysis::SweepRow>> all;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     all.push_back(analysis::sweep_event_rule(samples[i].data, fo, hs, rhos));
@@ -96,12 +98,16 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
     p.note = "line: rebound fraction " + fmt(o.rebound_fraction, "%g") + "; markers: rebound fraction 0";
     p.legend = io::LegendPlace::top_right;
     if (!panel.field) p.y_min = 0.0;
+    // The chosen rebound fraction as a line per sample; rho = 0 as markers of the same colour.
+    std::vector<double> rhos{o.rebound_fraction};
+    if (o.rebound_fraction != 0.0) rhos.push_back(0.0);
     for (std::size_t i = 0; i < samples.size(); ++i)
-      for (double rho : {o.rebound_fraction, 0.0}) {
+      for (double rho : rhos) {
         io::PlotSeries line;
         line.label = rho == o.rebound_fraction ? samples[i].name : "";
         line.color = static_cast<int>(i);
         line.style = rho == o.rebound_fraction ? io::PlotStyle::line : io::PlotStyle::markers;
+        line.marker_size = 3.0;
         for (const auto& w : all[i])
           if (w.rebound_fraction == rho) {
             const double y = panel.field ? w.*panel.field : static_cast<double>(w.events);
@@ -109,8 +115,7 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
             line.x.push_back(w.threshold_deg);
             line.y.push_back(y);
           }
-        if (rho == o.rebound_fraction || o.rebound_fraction != 0.0) p.series.push_back(std::move(line));
-        if (o.rebound_fraction == 0.0) break;
+        p.series.push_back(std::move(line));
       }
     io::write_plot(p, out_dir / panel.stem);
   }

@@ -55,8 +55,10 @@ struct SweepRow {
 /// Thresholds of the sweep (deg): the range issue 12 asked for, 0.05 ... 2.
 inline constexpr std::array<double, 7> kSweepThresholdsDeg{0.05, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0};
 
-/// Rebound fractions of the sweep.
-inline std::vector<double> sweep_rebound_fractions() { return {0.0, 0.1, 0.25, 0.5}; }
+/// Rebound fractions of the sweep: none, the default, and values either side of it.
+inline std::vector<double> sweep_rebound_fractions() {
+  return {0.0, 0.1, kDefaultReboundFraction, 0.25, 0.5};
+}
 
 /// Runs analyze_flowability for every (rho, h) pair, with the other options of `opt`.
 std::vector<SweepRow> sweep_event_rule(const Series& s, const FlowabilityOptions& opt,

@@ -347,4 +347,24 @@ TEST(AnalysisCli, CompareUsesOneThresholdForAllSamples) {
   ASSERT_EQ(p.status, 0) << p.output;
   EXPECT_EQ(count(dir / "per" / "compare.csv", "clean"), "38");
   EXPECT_EQ(count(dir / "per" / "compare.csv", "noisy"), "19");
+
+  // --sweep: events against the threshold; the clean sample's 0.15 deg drops count below 0.15 deg
+  // only; 7 thresholds x 5 rebound fractions per sample; plots written.
+  const auto w = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "noisy") +
+                                  " --sweep --out " + test::quote(dir / "sweep"));
+  ASSERT_EQ(w.status, 0) << w.output;
+  const auto rows = read_csv(dir / "sweep" / "compare_sweep.csv");
+  ASSERT_EQ(rows.size(), 1u + 2u * 7u * 5u);
+  EXPECT_EQ(rows[0], (std::vector<std::string>{"sample", "rebound_fraction", "threshold_deg", "events", "uas_p50",
+                                                "drop_p50", "f_p50"}));
+  auto events_at = [&](const std::string& sample, const std::string& rho, const std::string& h) {
+    for (const auto& row : rows)
+      if (row[0] == sample && row[1] == rho && row[2] == h) return row[3];
+    return std::string("?");
+  };
+  EXPECT_EQ(events_at("clean", "0.15", "0.1"), "38");
+  EXPECT_EQ(events_at("clean", "0.15", "0.25"), "19");
+  EXPECT_EQ(events_at("clean", "0", "2"), "19");
+  for (const char* stem : {"compare_sweep_events", "compare_sweep_uas", "compare_sweep_drop", "compare_sweep_f"})
+    EXPECT_FALSE(cv::imread((dir / "sweep" / (std::string(stem) + ".png")).string()).empty()) << stem;
 }
