@@ -4,7 +4,10 @@
 // smaller than a threshold h are not events. Extrema are found with a hysteresis ("zig-zag",
 // equivalently peak prominence >= h on the falling side) scan:
 //   * a maximum is confirmed once alpha has fallen at least h below it, a minimum once alpha has
-//     risen at least h above it; confirmed maxima and minima alternate;
+//     risen at least max(h, min(rho x (alpha at the event's start - the minimum), cap)) above it
+//     (rho the rebound fraction, default 0.15, cap 1 deg: a rebound inside a collapsing
+//     avalanche does not split it; chosen from simulated series, docs/analysis.md section 3.1);
+//     confirmed maxima and minima alternate;
 //   * an event is a confirmed maximum (start) and the lowest sample before the next confirmed
 //     maximum (end), so wiggles smaller than h neither create events nor split one drop in two;
 //   * the start is the last sample at the maximum, the end the first sample at the minimum;
