@@ -130,7 +130,7 @@ int run_video(const VideoOptions& o) {
   }
   const auto source = analysis::FrameSource::open(o.frames);
   if (source->is_video() && source->container_fps() > 0.0 &&
-      std::abs(source->container_fps() - o.fps) > 0.01 * o.fps && !o.quiet)
+      std::abs(source->container_fps() - o.fps) > 0.01 * o.fps)
     std::cerr << "warning: --fps " << fmt(o.fps, "%g") << " differs from the video's own frame rate "
               << fmt(source->container_fps(), "%g") << " fps; times use --fps\n";
 

@@ -2,6 +2,7 @@
 // noise, JPEG blocking, dust on the end plates, a drum off the image centre in a non-square image;
 // a video file read by OpenCV's VideoCapture; and the messages on bad video input.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <cmath>
 #include <fstream>
@@ -217,6 +218,12 @@ TEST(VideoRealFrames, VideoFileGivesTheSameSeriesAsItsFrames) {
   for (std::size_t k = 0; k < drawn.size(); ++k)
     EXPECT_NEAR(std::stod(test::split_csv(brows[k + 1])[2]), drawn[k], 1.0) << "frame " << k;
 
+  // --fps other than the container's 25 fps: times follow --fps, with a warning.
+  const auto w30 = test::run_biodem("video " + test::quote(avi) + " --fps 30 --rpm 1 --quiet --out " + test::quote(dir / "w30"));
+  ASSERT_EQ(w30.status, 0) << w30.output;
+  EXPECT_TRUE(contains(w30.output, "differs from the video's own frame rate 25 fps")) << w30.output;
+  EXPECT_NEAR(std::stod(test::split_csv(test::read_lines(dir / "w30" / "series.csv")[2])[0]), 1.0 / 30.0, 1e-9);
+
   // Bad input: one line naming the file or option, exit status 2, nothing computed.
   { std::ofstream(dir / "junk.avi") << "not a video"; }
   auto e = test::run_biodem("video " + test::quote(dir / "junk.avi") + " --fps 25 --rpm 1 --out " + test::quote(dir / "e1"));
@@ -242,4 +249,43 @@ TEST(VideoRealFrames, VideoFileGivesTheSameSeriesAsItsFrames) {
                        " --out " + test::quote(dir / "e5"));
   EXPECT_EQ(e.status, 2);
   EXPECT_TRUE(contains(e.output, "cannot be read")) << e.output;
+}
+
+// Constant memory: frames are read and measured in batches and their rows written as they go,
+// so a film of 1,200 frames takes no more memory than one of 100 (a 240 x 180 grey frame is
+// 43 kB: holding 1,200 of them would add ~52 MB). Tolerance: peak RSS grows by less than 15 MB.
+TEST(VideoRealFrames, MemoryDoesNotGrowWithTheNumberOfFrames) {
+  test::TempDir dir("video_memory");
+  Camera c;
+  c.width = 240;
+  c.height = 180;
+  c.cx = 121.0;
+  c.cy = 90.0;
+  c.radius = 80.0;
+  c.dust = false;
+  auto film = [&](const fs::path& path, int frames) {
+    cv::VideoWriter w(path.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 50.0,
+                      cv::Size(c.width, c.height), false);
+    if (!w.isOpened()) return false;
+    std::vector<cv::Mat> looks;
+    for (int k = 0; k < 10; ++k) looks.push_back(camera_frame(c, bed_mask(c, 20.0 + k, -15.0), 7 + static_cast<std::uint64_t>(k)));
+    for (int k = 0; k < frames; ++k) w.write(looks[static_cast<std::size_t>(k % 10)]);
+    return true;
+  };
+  if (!film(dir / "short.avi", 100)) GTEST_SKIP() << "this OpenCV build cannot write MJPG .avi";
+  ASSERT_TRUE(film(dir / "long.avi", 1200));
+  auto peak_rss_kb = [] {
+    rusage u{};
+    getrusage(RUSAGE_CHILDREN, &u);
+    return static_cast<double>(u.ru_maxrss);
+  };
+  const auto a = test::run_biodem("video " + test::quote(dir / "short.avi") + " --fps 50 --rpm 1 --quiet --out " + test::quote(dir / "a"));
+  ASSERT_EQ(a.status, 0) << a.output;
+  const double short_kb = peak_rss_kb();
+  const auto b = test::run_biodem("video " + test::quote(dir / "long.avi") + " --fps 50 --rpm 1 --quiet --out " + test::quote(dir / "b"));
+  ASSERT_EQ(b.status, 0) << b.output;
+  const double long_kb = peak_rss_kb();
+  EXPECT_EQ(test::read_lines(dir / "b" / "series.csv").size(), 1201u);
+  EXPECT_LT(long_kb - short_kb, 15.0 * 1024.0) << "peak RSS " << short_kb << " kB for 100 frames, " << long_kb << " kB for 1200";
+  std::printf("[measured] peak RSS %.1f MB for 100 frames, %.1f MB for 1200 frames\n", short_kb / 1024.0, long_kb / 1024.0);
 }
