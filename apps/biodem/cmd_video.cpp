@@ -317,8 +317,8 @@ Action register_video(CLI::App& app) {
       ->expected(2);
   o->radius_opt = sub->add_option("--radius-px", o->radius_px, "disc radius in pixels (default: found)");
   o->threshold_opt = sub->add_option("--threshold", o->threshold,
-                                     "grey level 0-255, darker or equal is powder (default: Otsu "
-                                     "inside the disc, per frame)")
+                                     "raw grey level 0-255, darker or equal is powder, no flat field (default: Otsu "
+                                     "of the flat-field corrected disc, per frame)")
                          ->check(CLI::Range(0, 255));
   sub->add_option("--background", o->background,
                   "image of the empty, lit drum from the same camera: flat-field reference for "

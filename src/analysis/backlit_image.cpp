@@ -291,27 +291,46 @@ cv::Mat estimate_illumination(const cv::Mat& gray, const DrumDisc& disc, double 
   const int step = std::max(1, static_cast<int>(R / 75.0));
   const cv::Rect box = disc_box(gray.size(), disc);
   std::vector<std::array<double, 3>> s;
-  cv::Mat inside(gray.size(), CV_8UC1, cv::Scalar(0));
+  std::array<double, 256> hist{};
   for (int i = box.y; i < box.y + box.height; i += step) {
     const auto* g = gray.ptr<std::uint8_t>(i);
     for (int j = box.x; j < box.x + box.width; j += step) {
       const double u = (j - disc.cx_px) / R, v = (i - disc.cy_px) / R;
       if (std::hypot(u, v) * R > r_in) continue;
       s.push_back({u, v, static_cast<double>(g[j])});
-      inside.at<std::uint8_t>(i, j) = 255;
+      hist[g[j]] += 1.0;
+    }
+  }
+  cv::Mat light(gray.size(), CV_32F, cv::Scalar(1.0f));
+  if (s.empty()) return light;
+  // Lit pixels: above Otsu's threshold of the samples when the two classes are clearly apart
+  // (powder passes less than half the light); otherwise the whole disc is lit (an empty drum,
+  // where the split would only cut the vignetting in two).
+  double total = 0.0, sum_all = 0.0;
+  for (int t = 0; t < 256; ++t) {
+    total += hist[static_cast<std::size_t>(t)];
+    sum_all += t * hist[static_cast<std::size_t>(t)];
+  }
+  double w0 = 0.0, sum0 = 0.0, best = -1.0, m0 = kNaN, m1 = kNaN;
+  int t_otsu = 0;
+  for (int t = 0; t < 255; ++t) {
+    w0 += hist[static_cast<std::size_t>(t)];
+    sum0 += t * hist[static_cast<std::size_t>(t)];
+    const double w1 = total - w0;
+    if (w0 <= 0.0 || w1 <= 0.0) continue;
+    const double a0 = sum0 / w0, a1 = (sum_all - sum0) / w1;
+    const double between = w0 * w1 * (a0 - a1) * (a0 - a1);
+    if (between > best) {
+      best = between;
+      t_otsu = t;
+      m0 = a0;
+      m1 = a1;
     }
   }
   std::array<double, kTerms> coef{};
-  cv::Mat light(gray.size(), CV_32F, cv::Scalar(1.0f));
-  if (s.empty()) return light;
-  // Lit pixels: above Otsu's threshold when the two classes are clearly apart (powder passes
-  // less than half the light); otherwise the whole disc is lit (an empty drum, where the split
-  // would only cut the vignetting in two).
-  double m0 = kNaN, m1 = kNaN;
-  const int t = otsu_threshold(gray, inside, &m0, &m1);
   std::vector<char> use(s.size(), 1);
   if (m0 < 0.5 * m1)
-    for (std::size_t k = 0; k < s.size(); ++k) use[k] = s[k][2] > t;
+    for (std::size_t k = 0; k < s.size(); ++k) use[k] = s[k][2] > t_otsu;
   bool ok = fit_light(s, use, coef);
   if (ok) {
     for (std::size_t k = 0; k < s.size(); ++k) use[k] = s[k][2] > 0.7 * eval_light(coef, s[k][0], s[k][1]);
@@ -328,10 +347,16 @@ cv::Mat estimate_illumination(const cv::Mat& gray, const DrumDisc& disc, double 
     coef = {};
     coef[0] = n > 0.0 ? sum / n : 255.0;
   }
+  // Evaluated row by row: for a fixed v the surface is a polynomial in u.
   for (int i = box.y; i < box.y + box.height; ++i) {
     auto* l = light.ptr<float>(i);
-    for (int j = box.x; j < box.x + box.width; ++j)
-      l[j] = static_cast<float>(std::max(1.0, eval_light(coef, (j - disc.cx_px) / R, (i - disc.cy_px) / R)));
+    const double v = (i - disc.cy_px) / R, v2 = v * v;
+    const double c0 = coef[0] + coef[2] * v + coef[5] * v2;
+    const double c1 = coef[1] + coef[4] * v;
+    for (int j = box.x; j < box.x + box.width; ++j) {
+      const double u = (j - disc.cx_px) / R, u2 = u * u, r2 = u2 + v2;
+      l[j] = static_cast<float>(std::max(1.0, c0 + c1 * u + coef[3] * u2 + coef[6] * r2 * r2));
+    }
   }
   return light;
 }
