@@ -1,6 +1,7 @@
 // `biodem analyze DIR|SERIES.csv`: avalanche events and flowability descriptors from a
 // centroid-angle series (SPEC 6, 11). Writes events.csv, descriptors.csv and plots (PNG + SVG)
 // next to the series; prints a summary; warnings go to stderr prefixed "warning: ".
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -29,7 +30,9 @@ struct AnalyzeOptions {
   double skip_s = 0.0;
   double skip_rev = 0.0;
   double rpm = 0.0;
+  double rebound_fraction = analysis::kDefaultReboundFraction;
   bool no_plots = false;
+  bool sweep = false;
   CLI::Option* min_drop_opt = nullptr;
   CLI::Option* skip_s_opt = nullptr;
   CLI::Option* skip_rev_opt = nullptr;
@@ -69,8 +72,14 @@ std::string fmt(double v, const char* f = "%.4g") {
   return buf;
 }
 
-void write_plots(const fs::path& dir, const analysis::Series& s, const FlowabilityResult& r) {
-  // alpha against revolution with the events marked.
+// Event markers stay readable up to about one marker per 12 px of plot width; beyond that (a
+// 3-revolution biomass run has hundreds of events) the overview marks only the starts, small,
+// and a second plot shows the first events in detail.
+constexpr std::size_t kDetailedEvents = 60;
+constexpr std::size_t kZoomEvents = 20;
+
+io::Plot alpha_plot(const analysis::Series& s, const FlowabilityResult& r, std::size_t first_event,
+                    std::size_t last_event, bool detailed) {
   io::Plot a;
   a.title = "Centroid angle";
   a.x_label = "revolution (turns)";
@@ -82,17 +91,71 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
   io::PlotSeries starts{"event start (UAS)", {}, {}, io::PlotStyle::markers,
                         io::Marker::triangle_down, 3};
   io::PlotSeries ends{"event end", {}, {}, io::PlotStyle::markers, io::Marker::triangle_up, 2};
-  for (const auto& e : r.detection.events) {
+  for (std::size_t k = first_event; k < last_event; ++k) {
+    const auto& e = r.detection.events[k];
     starts.x.push_back(s.revolution[e.start_index]);
     starts.y.push_back(e.uas_deg);
     ends.x.push_back(s.revolution[e.end_index]);
     ends.y.push_back(s.alpha_deg[e.end_index]);
   }
   starts.marker_size = ends.marker_size = 3.5;
-  a.series = {line, starts, ends};
-  io::write_plot(a, dir / "alpha_vs_revolution");
+  if (detailed) {
+    a.series = {line, starts, ends};
+  } else {
+    starts.marker_size = 2.0;
+    starts.label = "event start";
+    a.note += " (starts marked; alpha_vs_revolution_zoom shows the first " + std::to_string(kZoomEvents) + ")";
+    a.series = {line, starts};
+  }
+  return a;
+}
 
-  // r^2 against time.
+// Running median of v over a centred window of w samples, evaluated every `stride` samples.
+void running_median(const std::vector<double>& x, const std::vector<double>& v, std::size_t w,
+                    std::size_t stride, std::vector<double>& mx, std::vector<double>& mv) {
+  std::vector<double> win;
+  for (std::size_t i = 0; i < v.size(); i += stride) {
+    const std::size_t lo = i >= w / 2 ? i - w / 2 : 0, hi = std::min(v.size(), i + w / 2 + 1);
+    win.clear();
+    for (std::size_t j = lo; j < hi; ++j)
+      if (std::isfinite(v[j])) win.push_back(v[j]);
+    if (win.empty()) continue;
+    std::nth_element(win.begin(), win.begin() + static_cast<std::ptrdiff_t>(win.size() / 2), win.end());
+    mx.push_back(x[i]);
+    mv.push_back(win[win.size() / 2]);
+  }
+}
+
+void write_plots(const fs::path& dir, const analysis::Series& s, const FlowabilityResult& r) {
+  // alpha against revolution with the events marked.
+  const std::size_t n_events = r.detection.events.size();
+  const bool detailed = n_events <= kDetailedEvents;
+  io::write_plot(alpha_plot(s, r, 0, n_events, detailed), dir / "alpha_vs_revolution");
+  if (!detailed) {
+    // The first kZoomEvents events with both markers, on their own range.
+    io::Plot z = alpha_plot(s, r, 0, kZoomEvents, true);
+    const auto& e0 = r.detection.events.front();
+    const auto& e1 = r.detection.events[kZoomEvents - 1];
+    const std::size_t i0 = e0.start_index > 20 ? e0.start_index - 20 : 0;
+    const std::size_t i1 = std::min(s.size() - 1, e1.end_index + 20);
+    double lo = s.alpha_deg[i0], hi = lo;
+    for (std::size_t i = i0; i <= i1; ++i)
+      if (std::isfinite(s.alpha_deg[i])) {
+        lo = std::min(lo, s.alpha_deg[i]);
+        hi = std::max(hi, s.alpha_deg[i]);
+      }
+    const double pad = 0.05 * std::max(hi - lo, 1e-3);
+    z.x_min = s.revolution[i0];
+    z.x_max = s.revolution[i1];
+    z.y_min = lo - pad;
+    z.y_max = hi + pad;
+    z.title = "Centroid angle, first " + std::to_string(kZoomEvents) + " events";
+    io::write_plot(z, dir / "alpha_vs_revolution_zoom");
+  }
+
+  // r^2 against time: every sample (grey) and, for long series, a running median over 1/300 of
+  // the series (about 3 px of plot width) so that the trend reads through the sample-to-sample
+  // scatter.
   bool has_r2 = false;
   for (double v : s.surface_r2) has_r2 = has_r2 || std::isfinite(v);
   if (has_r2) {
@@ -103,7 +166,20 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
     p.legend = io::LegendPlace::none;
     io::PlotSeries l{"r^2", s.time_s, s.surface_r2};
     l.line_width = 1.0;
-    p.series = {l};
+    if (s.size() > 600) {
+      const std::size_t w = std::max<std::size_t>(5, s.size() / 300);
+      io::PlotSeries med{"running median", {}, {}};
+      running_median(s.time_s, s.surface_r2, w, std::max<std::size_t>(1, w / 4), med.x, med.y);
+      med.line_width = 2.0;
+      med.color = 0;
+      l.color = 7;  // grey
+      l.label = "r^2 of each sample";
+      p.legend = io::LegendPlace::bottom_right;
+      p.note = "running median over " + std::to_string(w) + " samples";
+      p.series = {l, med};
+    } else {
+      p.series = {l};
+    }
     io::write_plot(p, dir / "r2_vs_time");
   }
 
@@ -138,6 +214,7 @@ int run_analyze(const AnalyzeOptions& o) {
   if (o.skip_s_opt->count()) fo.skip_s = o.skip_s;
   if (o.skip_rev_opt->count()) fo.skip_rev = o.skip_rev;
   if (o.rpm_opt->count()) fo.rpm = o.rpm;
+  fo.events.rebound_fraction = o.rebound_fraction;
   const FlowabilityResult r = analysis::analyze_flowability(file.series, fo);
   for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
 
@@ -158,6 +235,7 @@ int run_analyze(const AnalyzeOptions& o) {
               << " deg))";
   else
     std::cout << " (--min-drop-deg)";
+  std::cout << ", rebound fraction " << fmt(r.detection.rebound_fraction, "%g");
   std::cout << "\nevents: " << r.detection.events.size() << "\n";
   std::printf("%-12s %7s %10s %10s %10s %10s %8s\n", "descriptor", "count", "mean", "p10", "p50",
               "p90", "span");
@@ -169,6 +247,16 @@ int run_analyze(const AnalyzeOptions& o) {
                 fmt(d.span, "%.3g").c_str());
   }
   std::fflush(stdout);
+  if (o.sweep) {
+    const std::vector<double> hs(analysis::kSweepThresholdsDeg.begin(), analysis::kSweepThresholdsDeg.end());
+    const auto rows = analysis::sweep_event_rule(s, fo, hs, analysis::sweep_rebound_fractions());
+    io::write_sweep_csv(dir / "threshold_sweep.csv", "", rows, true);
+    std::printf("event-rule sweep (threshold_sweep.csv):\n%5s %8s %7s %10s %10s %10s\n", "rho", "h_deg", "events",
+                "uas_p50", "drop_p50", "f_p50");
+    for (const auto& w : rows)
+      std::printf("%5g %8g %7zu %10s %10s %10s\n", w.rebound_fraction, w.threshold_deg, w.events,
+                  fmt(w.uas_p50).c_str(), fmt(w.drop_p50).c_str(), fmt(w.f_p50).c_str());
+  }
   std::cout << "wrote " << (dir / "events.csv").string() << ", descriptors.csv"
             << (o.no_plots ? "" : " and plots (PNG, SVG)") << "\n";
   return 0;
@@ -194,6 +282,12 @@ Action register_analyze(CLI::App& app) {
                                     "skip the first R revolutions of the rotating part");
   o->rpm_opt = sub->add_option("--rpm", o->rpm,
                                "drum speed in rpm for f (default: slope of the revolution column)");
+  sub->add_option("--rebound-fraction", o->rebound_fraction,
+                  "an avalanche ends only once alpha rose max(h, R x its drop so far) above its "
+                  "minimum (default " + fmt(analysis::kDefaultReboundFraction, "%g") + "; 0: a rise of h)");
+  sub->add_flag("--sweep", o->sweep,
+                "also write threshold_sweep.csv: events and medians for thresholds 0.05 ... 2 deg "
+                "and rebound fractions 0, 0.1, 0.15, 0.25, 0.5");
   sub->add_flag("--no-plots", o->no_plots, "write the CSV files only");
   return [o] { return run_analyze(*o); };
 }

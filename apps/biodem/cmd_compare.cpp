@@ -3,6 +3,7 @@
 // best, ties share a rank), as compare.csv and a printed table, plus overlaid cumulative
 // distributions (PNG + SVG). Each sample is analysed from its series.csv with the same options
 // as `biodem analyze`.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -31,7 +32,10 @@ struct CompareOptions {
   std::vector<std::string> names;
   std::string out = ".";
   double min_drop_deg = 0.0, skip_s = 0.0, skip_rev = 0.0, rpm = 0.0;
+  double rebound_fraction = analysis::kDefaultReboundFraction;
   bool no_plots = false;
+  bool per_sample_threshold = false;
+  bool sweep = false;
   CLI::Option* min_drop_opt = nullptr;
   CLI::Option* skip_s_opt = nullptr;
   CLI::Option* skip_rev_opt = nullptr;
@@ -41,6 +45,7 @@ struct CompareOptions {
 struct Sample {
   std::string name;
   fs::path series;
+  analysis::Series data;
   analysis::FlowabilityResult result;
 };
 
@@ -62,6 +67,60 @@ std::string fmt(double v, const char* f = "%.4g") {
   return buf;
 }
 
+// The event-rule sweep of every sample: compare_sweep.csv and, unless --no-plots, the event count
+// and the medians of UAS, drop and f against the threshold, one colour per sample, a line for the
+// default rebound fraction and markers for none (rho = 0).
+void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo,
+                 const std::vector<Sample>& samples, const fs::path& out_dir) {
+  const std::vector<double> hs(analysis::kSweepThresholdsDeg.begin(), analysis::kSweepThresholdsDeg.end());
+  auto rhos = analysis::sweep_rebound_fractions();
+  if (std::find(rhos.begin(), rhos.end(), o.rebound_fraction) == rhos.end()) rhos.push_back(o.rebound_fraction);
+  std::vector<std::vector<analysis::SweepRow>> all;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    all.push_back(analysis::sweep_event_rule(samples[i].data, fo, hs, rhos));
+    io::write_sweep_csv(out_dir / "compare_sweep.csv", samples[i].name, all.back(), i == 0, true);
+  }
+  if (o.no_plots) return;
+  struct Panel {
+    const char* stem;
+    const char* label;
+    double analysis::SweepRow::*field;
+  };
+  const Panel panels[] = {{"compare_sweep_uas", "median UAS (deg)", &analysis::SweepRow::uas_p50},
+                          {"compare_sweep_drop", "median avalanche size (deg)", &analysis::SweepRow::drop_p50},
+                          {"compare_sweep_f", "median f (%)", &analysis::SweepRow::f_p50},
+                          {"compare_sweep_events", "events", nullptr}};
+  for (const auto& panel : panels) {
+    io::Plot p;
+    p.title = std::string("Event rule: ") + panel.label + " against the threshold";
+    p.x_label = "threshold h (deg)";
+    p.y_label = panel.label;
+    p.note = "line: rebound fraction " + fmt(o.rebound_fraction, "%g") + "; markers: rebound fraction 0";
+    p.legend = io::LegendPlace::top_right;
+    if (!panel.field) p.y_min = 0.0;
+    // The chosen rebound fraction as a line per sample; rho = 0 as markers of the same colour.
+    std::vector<double> rhos{o.rebound_fraction};
+    if (o.rebound_fraction != 0.0) rhos.push_back(0.0);
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      for (double rho : rhos) {
+        io::PlotSeries line;
+        line.label = rho == o.rebound_fraction ? samples[i].name : "";
+        line.color = static_cast<int>(i);
+        line.style = rho == o.rebound_fraction ? io::PlotStyle::line : io::PlotStyle::markers;
+        line.marker_size = 3.0;
+        for (const auto& w : all[i])
+          if (w.rebound_fraction == rho) {
+            const double y = panel.field ? w.*panel.field : static_cast<double>(w.events);
+            if (!std::isfinite(y)) continue;
+            line.x.push_back(w.threshold_deg);
+            line.y.push_back(y);
+          }
+        p.series.push_back(std::move(line));
+      }
+    io::write_plot(p, out_dir / panel.stem);
+  }
+}
+
 int run_compare(const CompareOptions& o) {
   if (o.inputs.empty()) throw Error("compare: give at least one sample folder or series file");
   if (!o.names.empty() && o.names.size() != o.inputs.size())
@@ -73,6 +132,9 @@ int run_compare(const CompareOptions& o) {
   if (o.skip_s_opt->count()) fo.skip_s = o.skip_s;
   if (o.skip_rev_opt->count()) fo.skip_rev = o.skip_rev;
   if (o.rpm_opt->count()) fo.rpm = o.rpm;
+  fo.events.rebound_fraction = o.rebound_fraction;
+  if (o.per_sample_threshold && o.min_drop_opt->count())
+    throw Error("compare: give either --min-drop-deg or --per-sample-threshold");
 
   std::vector<Sample> samples;
   std::set<std::string> used;
@@ -90,9 +152,31 @@ int run_compare(const CompareOptions& o) {
     } catch (const Error& e) {
       throw Error(s.name + " (" + s.series.string() + "): " + e.what());
     }
-    for (const auto& w : s.result.warnings) std::cerr << "warning: " << s.name << ": " << w << "\n";
+    s.data = file.series;
     samples.push_back(std::move(s));
   }
+
+  // One event rule for every sample (issue 12): with a threshold chosen per sample from its own
+  // noise, a noisier sample would lose its small events and the ranks would partly reflect the
+  // noise. The common threshold is the largest of the samples' noise-based defaults (so it is
+  // above every sample's noise); --per-sample-threshold restores one threshold per sample.
+  std::string rule;
+  if (o.min_drop_opt->count()) {
+    rule = "--min-drop-deg " + fmt(o.min_drop_deg, "%.3g") + " deg for every sample";
+  } else if (o.per_sample_threshold) {
+    rule = "threshold per sample from its own noise (--per-sample-threshold)";
+  } else {
+    std::size_t noisiest = 0;
+    for (std::size_t i = 1; i < samples.size(); ++i)
+      if (samples[i].result.detection.threshold_deg > samples[noisiest].result.detection.threshold_deg) noisiest = i;
+    fo.events.min_drop_deg = samples[noisiest].result.detection.threshold_deg;
+    rule = fmt(*fo.events.min_drop_deg, "%.3g") + " deg for every sample (the largest noise-based default: " +
+           samples[noisiest].name + ")";
+    for (auto& s : samples) s.result = analysis::analyze_flowability(s.data, fo);
+  }
+  rule += ", rebound fraction " + fmt(o.rebound_fraction, "%g");
+  for (const auto& s : samples)
+    for (const auto& w : s.result.warnings) std::cerr << "warning: " << s.name << ": " << w << "\n";
 
   const fs::path out_dir = o.out;
   std::error_code ec;
@@ -124,6 +208,7 @@ int run_compare(const CompareOptions& o) {
     if (!out) throw Error("cannot write '" + csv.string() + "'");
   }
 
+  std::cout << "event threshold: " << rule << "\n";
   std::size_t name_w = 6;
   for (const auto& s : samples) name_w = std::max(name_w, s.name.size());
   std::printf("%-12s %-*s %7s %10s %8s %5s\n", "descriptor", static_cast<int>(name_w), "sample",
@@ -162,6 +247,7 @@ int run_compare(const CompareOptions& o) {
       if (any) io::write_plot(p, out_dir / stems[k]);
     }
   }
+  if (o.sweep) write_sweep(o, fo, samples, out_dir);
   std::cout << "wrote " << csv.string() << (o.no_plots ? "" : " and plots (PNG, SVG)") << "\n";
   return 0;
 }
@@ -180,8 +266,16 @@ Action register_compare(CLI::App& app) {
       ->expected(1, -1);
   sub->add_option("--out", o->out, "folder for compare.csv and the plots (default: .)");
   o->min_drop_opt = sub->add_option("--min-drop-deg", o->min_drop_deg,
-                                    "event threshold for every sample, deg (default: per sample, "
-                                    "max(8 x noise, 0.05 deg))");
+                                    "event threshold for every sample, deg (default: the largest of "
+                                    "the samples' max(8 x noise, 0.05 deg))");
+  sub->add_flag("--per-sample-threshold", o->per_sample_threshold,
+                "each sample's own noise-based threshold instead of one for all");
+  sub->add_option("--rebound-fraction", o->rebound_fraction,
+                  "an avalanche ends only once alpha rose max(h, R x its drop so far) above its "
+                  "minimum (default " + fmt(analysis::kDefaultReboundFraction, "%g") + ")");
+  sub->add_flag("--sweep", o->sweep,
+                "also write compare_sweep.csv and compare_sweep_*.png: events and medians against "
+                "the threshold (0.05 ... 2 deg) per sample");
   o->skip_s_opt = sub->add_option("--skip-s", o->skip_s, "skip the first T seconds of rotation");
   o->skip_rev_opt = sub->add_option("--skip-rev", o->skip_rev, "skip the first R revolutions");
   o->rpm_opt = sub->add_option("--rpm", o->rpm, "drum speed for every sample (default: from each series)");

@@ -1,11 +1,12 @@
 // `biodem video FRAMES --fps F --rpm W --out DIR`: the centroid-angle and free-surface series of
-// a back-lit drum film given as a folder of frames (SPEC 6, 11), written as DIR/series.csv in
-// the same format as a simulation's, ready for `biodem analyze`. Also DIR/video_check.png: the
-// first frame with the disc found, the powder mask and the surface profile, to check the set-up.
+// a back-lit drum film given as a folder of frames or a video file (SPEC 6, 11), written as
+// DIR/series.csv in the same format as a simulation's, ready for `biodem analyze`. Also
+// DIR/video_check.png: the first frame with the disc found, the powder mask and the surface
+// profile, to check the set-up. Frames are read in batches and their rows written as they are
+// measured, so memory does not grow with the length of the film.
 #include <omp.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -21,6 +22,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/backlit_image.hpp"
+#include "analysis/video_frames.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
 #include "io/progress.hpp"
@@ -38,6 +40,7 @@ struct VideoOptions {
   double rpm = 0.0;
   std::string out;
   std::string rotation = "ccw";
+  std::string background;
   std::vector<double> center_px;
   double radius_px = 0.0;
   int threshold = -1;
@@ -47,63 +50,6 @@ struct VideoOptions {
   CLI::Option* radius_opt = nullptr;
   CLI::Option* threshold_opt = nullptr;
 };
-
-bool is_frame_file(const fs::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
-}
-
-// Natural order: digit runs compare as numbers, so frame2 < frame10 (zero-padded names sort the
-// same as plain lexicographic order).
-bool natural_less(const std::string& a, const std::string& b) {
-  std::size_t i = 0, j = 0;
-  while (i < a.size() && j < b.size()) {
-    if (std::isdigit(static_cast<unsigned char>(a[i])) && std::isdigit(static_cast<unsigned char>(b[j]))) {
-      std::size_t ie = i, je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      std::string_view da(a.data() + i, ie - i), db(b.data() + j, je - j);
-      while (da.size() > 1 && da.front() == '0') da.remove_prefix(1);
-      while (db.size() > 1 && db.front() == '0') db.remove_prefix(1);
-      if (da.size() != db.size()) return da.size() < db.size();
-      if (da != db) return da < db;
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  if ((a.size() - i) != (b.size() - j)) return (a.size() - i) < (b.size() - j);
-  return a < b;
-}
-
-std::vector<fs::path> list_frames(const std::string& folder) {
-  std::error_code ec;
-  if (!fs::exists(folder, ec)) throw Error("frames folder '" + folder + "' does not exist");
-  if (!fs::is_directory(folder, ec)) throw Error("frames '" + folder + "' is not a folder");
-  std::vector<fs::path> frames;
-  for (const auto& e : fs::directory_iterator(folder, ec))
-    if (e.is_regular_file() && is_frame_file(e.path())) frames.push_back(e.path());
-  if (ec) throw Error("cannot list frames folder '" + folder + "': " + ec.message());
-  if (frames.empty())
-    throw Error("no frames (.png, .jpg, .jpeg, .tif, .tiff) in folder '" + folder + "'");
-  std::sort(frames.begin(), frames.end(), [](const fs::path& a, const fs::path& b) {
-    return natural_less(a.filename().string(), b.filename().string());
-  });
-  return frames;
-}
-
-cv::Mat read_grey(const fs::path& p) {
-  try {
-    return cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
-  } catch (const cv::Exception&) {
-    return {};
-  }
-}
 
 std::string fmt(double v, const char* f = "%.4g") {
   char buf[48];
@@ -138,6 +84,27 @@ void write_check_image(const fs::path& path, const cv::Mat& grey, const analysis
   if (!cv::imwrite(path.string(), rgb)) throw Error("cannot write '" + path.string() + "'");
 }
 
+// First 10 names of a list, then the count of the others.
+class NameList {
+ public:
+  void add(const std::string& name) {
+    if (names_.size() < 10) names_.push_back(name);
+    ++count_;
+  }
+  std::size_t size() const { return count_; }
+  bool empty() const { return count_ == 0; }
+  std::string str() const {
+    std::ostringstream s;
+    for (std::size_t i = 0; i < names_.size(); ++i) s << (i ? ", " : "") << names_[i];
+    if (count_ > names_.size()) s << ", ... (" << count_ - names_.size() << " more)";
+    return s.str();
+  }
+
+ private:
+  std::vector<std::string> names_;
+  std::size_t count_ = 0;
+};
+
 int run_video(const VideoOptions& o) {
   if (!(o.fps > 0.0) || !std::isfinite(o.fps)) throw Error("--fps must be > 0");
   if (!(o.rpm > 0.0) || !std::isfinite(o.rpm)) throw Error("--rpm must be > 0");
@@ -148,7 +115,23 @@ int run_video(const VideoOptions& o) {
   if (given_radius && !(o.radius_px > 0.0)) throw Error("--radius-px must be > 0");
 
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
-  const std::vector<fs::path> frames = list_frames(o.frames);
+  cv::Mat background;
+  if (!o.background.empty()) {
+    std::error_code bec;
+    if (!fs::is_regular_file(o.background, bec))
+      throw Error("--background '" + o.background + "' does not exist or is not a file");
+    try {
+      background = analysis::to_grey8(cv::imread(o.background, cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR));
+    } catch (const cv::Exception&) {
+      background.release();
+    }
+    if (background.empty()) throw Error("--background '" + o.background + "' cannot be read as an image");
+  }
+  const auto source = analysis::FrameSource::open(o.frames);
+  if (source->is_video() && source->container_fps() > 0.0 &&
+      std::abs(source->container_fps() - o.fps) > 0.01 * o.fps)
+    std::cerr << "warning: --fps " << fmt(o.fps, "%g") << " differs from the video's own frame rate "
+              << fmt(source->container_fps(), "%g") << " fps; times use --fps\n";
 
   const fs::path out_dir = o.out;
   std::error_code ec;
@@ -161,120 +144,152 @@ int run_video(const VideoOptions& o) {
   params.surface.bin_px = o.bin_px;
   params.surface.wall_zone_px = o.wall_zone_px;
 
-  // The camera is fixed: the disc is found once, on the first readable frame where its rim shows
-  // (frames taken while a drum is being filled can hide most of the rim; up to 50 are tried).
-  std::size_t first = 0;
-  cv::Mat first_img;
-  for (; first < frames.size(); ++first) {
-    first_img = read_grey(frames[first]);
-    if (!first_img.empty()) break;
-  }
-  if (first_img.empty())
-    throw Error("none of the " + std::to_string(frames.size()) + " frames in '" + o.frames +
-                "' can be read as an image");
-  analysis::DrumDisc disc;
-  if (given_centre) {
-    disc = {o.center_px[0], o.center_px[1], o.radius_px};
-  } else {
-    std::string first_error;
-    bool found = false;
-    for (std::size_t k = first, tried = 0; k < frames.size() && tried < 50 && !found; ++k) {
-      const cv::Mat img = k == first ? first_img : read_grey(frames[k]);
-      if (img.empty()) continue;
-      ++tried;
-      try {
-        disc = analysis::find_drum_disc(img);
-        found = true;
-        first = k;
-        first_img = img;
-      } catch (const Error& e) {
-        if (first_error.empty()) first_error = frames[k].filename().string() + ": " + e.what();
-      }
+  // The camera is fixed: the disc is found once, on the empty-drum background when given, else
+  // on the first readable frame where its rim shows (frames taken while a drum is being filled
+  // can hide most of the rim; up to 50 are tried). Frames read meanwhile are kept and measured
+  // first.
+  std::vector<analysis::VideoFrame> pending;
+  analysis::DrumDisc disc{};
+  std::string disc_from = "given";
+  std::optional<cv::Size> size;
+  std::string first_error;
+  bool found = given_centre;
+  if (given_centre) disc = {o.center_px[0], o.center_px[1], o.radius_px};
+  if (!found && !background.empty()) {
+    try {
+      disc = analysis::find_drum_disc(background);
+    } catch (const Error& e) {
+      throw Error("--background '" + o.background + "': " + e.what());
     }
-    if (!found) throw Error(first_error);
+    found = true;
+    disc_from = "found on the background";
+  }
+  for (std::size_t tried = 0; pending.size() < 64;) {
+    analysis::VideoFrame f;
+    if (!source->next(f)) break;
+    source->load(f);
+    pending.push_back(std::move(f));
+    const cv::Mat& img = pending.back().grey;
+    if (img.empty()) continue;
+    if (!size) size = img.size();
+    if (found) break;
+    if (img.size() != *size || tried++ >= 50) continue;
+    try {
+      disc = analysis::find_drum_disc(img);
+      found = true;
+      disc_from = "found on " + pending.back().name;
+      break;
+    } catch (const Error& e) {
+      if (first_error.empty()) first_error = pending.back().name + ": " + e.what();
+    }
+  }
+  if (!size)
+    throw Error(std::string(source->is_video() ? "the video '" : "none of the frames in '") + o.frames +
+                "' can be read as an image");
+  if (!found) throw Error(first_error.empty() ? "could not find the drum disc in '" + o.frames + "'" : first_error);
+  if (!background.empty()) {
+    if (background.size() != *size)
+      throw Error("--background '" + o.background + "' is " + std::to_string(background.cols) + "x" +
+                  std::to_string(background.rows) + " px, the frames " + std::to_string(size->width) + "x" +
+                  std::to_string(size->height) + " px");
+    params.illumination = analysis::background_illumination(background, disc);
   }
   if (!o.quiet)
     std::cerr << "drum disc: centre (" << fmt(disc.cx_px, "%.1f") << ", " << fmt(disc.cy_px, "%.1f")
-              << ") px, radius " << fmt(disc.radius_px, "%.1f") << " px"
-              << (given_centre ? " (given)" : " (found on " + frames[first].filename().string() + ")")
-              << "\n";
-  write_check_image(out_dir / "video_check.png", first_img, disc, params);
-
-  struct Row {
-    bool read = false;
-    bool size_ok = true;
-    analysis::FrameMeasure m;
-  };
-  const std::size_t n = frames.size();
-  std::vector<Row> rows(n);
-  io::Progress progress(std::cerr, io::Progress::stderr_is_terminal(), 5.0);
-  const std::size_t batch = 32 * static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
-  for (std::size_t b0 = 0; b0 < n; b0 += batch) {
-    const auto b1 = static_cast<long>(std::min(n, b0 + batch));
-#pragma omp parallel for schedule(dynamic, 1)
-    for (long i = static_cast<long>(b0); i < b1; ++i) {
-      Row& r = rows[static_cast<std::size_t>(i)];
-      const cv::Mat img = read_grey(frames[static_cast<std::size_t>(i)]);
-      if (img.empty()) continue;
-      r.read = true;
-      if (img.size() != first_img.size()) {
-        r.size_ok = false;
-        continue;
-      }
-      r.m = analysis::measure_backlit_frame(img, disc, params);
+              << ") px, radius " << fmt(disc.radius_px, "%.1f") << " px (" << disc_from << ")\n";
+  for (const auto& f : pending)
+    if (!f.grey.empty() && f.grey.size() == *size) {
+      write_check_image(out_dir / "video_check.png", f.grey, disc, params);
+      break;
     }
-    if (!o.quiet)
-      progress.update(static_cast<double>(b1) / static_cast<double>(n),
-                      "frame " + std::to_string(b1) + "/" + std::to_string(n),
-                      static_cast<double>(b1 - 1) / o.fps);
-  }
 
   io::SeriesWriter writer(out_dir / "series.csv", false);
-  std::vector<std::string> unreadable, wrong_size, empty;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Row& r = rows[i];
-    const std::string name = frames[i].filename().string();
-    if (!r.read) {
-      unreadable.push_back(name);
-      continue;
+  NameList unreadable, wrong_size, empty;
+  std::size_t total = 0, measured = 0;
+  io::Progress progress(std::cerr, io::Progress::stderr_is_terminal(), 5.0);
+  const std::size_t batch = 16 * static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
+  std::vector<analysis::VideoFrame> frames;
+  std::vector<analysis::FrameMeasure> results;
+  enum class Status { unreadable, wrong_size, measured };
+  std::vector<Status> status;
+  std::size_t next_pending = 0;
+  for (bool more = true; more;) {
+    frames.clear();
+    while (frames.size() < batch) {
+      if (next_pending < pending.size()) {
+        frames.push_back(std::move(pending[next_pending++]));
+        continue;
+      }
+      analysis::VideoFrame f;
+      if (!source->next(f)) {
+        more = false;
+        break;
+      }
+      frames.push_back(std::move(f));
     }
-    if (!r.size_ok) {
-      wrong_size.push_back(name);
-      continue;
+    if (next_pending == pending.size()) pending.clear();
+    results.assign(frames.size(), analysis::FrameMeasure{});
+    status.assign(frames.size(), Status::unreadable);
+    const auto nb = static_cast<long>(frames.size());
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long k = 0; k < nb; ++k) {
+      auto& f = frames[static_cast<std::size_t>(k)];
+      source->load(f);
+      auto& st = status[static_cast<std::size_t>(k)];
+      if (f.grey.empty()) continue;
+      if (f.grey.size() != *size) {
+        st = Status::wrong_size;
+      } else {
+        st = Status::measured;
+        results[static_cast<std::size_t>(k)] = analysis::measure_backlit_frame(f.grey, disc, params);
+      }
+      f.grey.release();
     }
-    if (!r.m.has_powder) empty.push_back(name);
-    io::SeriesRow row;
-    row.time_s = static_cast<double>(i) / o.fps;
-    row.revolution = o.rpm * row.time_s / 60.0;
-    row.alpha_deg = r.m.alpha_deg;
-    if (std::isfinite(r.m.surface.r2)) {
-      row.surface_r2 = r.m.surface.r2;
-      row.surface_angle_deg = r.m.surface.angle_deg;
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+      const auto& f = frames[k];
+      const auto& m = results[k];
+      ++total;
+      if (status[k] == Status::unreadable) {
+        unreadable.add(f.name);
+        continue;
+      }
+      if (status[k] == Status::wrong_size) {
+        wrong_size.add(f.name);
+        continue;
+      }
+      if (!m.has_powder) empty.add(f.name);
+      else ++measured;
+      io::SeriesRow row;
+      row.time_s = static_cast<double>(f.index) / o.fps;
+      row.revolution = o.rpm * row.time_s / 60.0;
+      row.alpha_deg = m.alpha_deg;
+      if (std::isfinite(m.surface.r2)) {
+        row.surface_r2 = m.surface.r2;
+        row.surface_angle_deg = m.surface.angle_deg;
+      }
+      writer.write(row);
     }
-    writer.write(row);
+    if (!o.quiet && !frames.empty()) {
+      const std::size_t n = std::max(source->size_hint(), total);
+      progress.update(static_cast<double>(total) / static_cast<double>(n),
+                      "frame " + std::to_string(total) + "/" + std::to_string(n),
+                      static_cast<double>(frames.back().index) / o.fps);
+    }
   }
   writer.flush();
 
-  auto list = [](const std::vector<std::string>& v) {
-    std::ostringstream s;
-    for (std::size_t i = 0; i < std::min<std::size_t>(v.size(), 10); ++i) s << (i ? ", " : "") << v[i];
-    if (v.size() > 10) s << ", ... (" << v.size() - 10 << " more)";
-    return s.str();
-  };
-  const std::size_t measured = n - unreadable.size() - wrong_size.size() - empty.size();
-  if (!o.quiet)
-    progress.finish("measured " + std::to_string(measured) + " of " + std::to_string(n) + " frames");
+  if (!o.quiet) progress.finish("measured " + std::to_string(measured) + " of " + std::to_string(total) + " frames");
   if (!unreadable.empty())
-    std::cerr << "warning: skipped " << unreadable.size() << " unreadable frame(s): " << list(unreadable) << "\n";
+    std::cerr << "warning: skipped " << unreadable.size() << " unreadable frame(s): " << unreadable.str() << "\n";
   if (!wrong_size.empty())
     std::cerr << "warning: skipped " << wrong_size.size() << " frame(s) whose size differs from "
-              << frames[first].filename().string() << ": " << list(wrong_size) << "\n";
+              << size->width << "x" << size->height << " px: " << wrong_size.str() << "\n";
   if (!empty.empty())
     std::cerr << "warning: no powder found in " << empty.size() << " frame(s) (alpha left empty): "
-              << list(empty) << "\n";
+              << empty.str() << "\n";
   if (measured == 0) throw Error("no frame in '" + o.frames + "' showed powder in the drum disc");
   std::cout << "wrote " << writer.path().string() << " (" << measured << " frames, "
-            << fmt(static_cast<double>(n) / o.fps, "%.3g") << " s at " << fmt(o.fps, "%g")
+            << fmt(static_cast<double>(total) / o.fps, "%.3g") << " s at " << fmt(o.fps, "%g")
             << " fps)\n";
   return 0;
 }
@@ -285,9 +300,12 @@ Action register_video(CLI::App& app) {
   auto* sub = app.add_subcommand(
       "video",
       "Centroid angle alpha and surface r^2 series from a folder of back-lit drum frames "
-      "(PNG/JPEG/TIFF, sorted by name) into DIR/series.csv, ready for analyze");
+      "(PNG/JPEG/TIFF, sorted by name) or a video file (.avi, .mp4, ...) into DIR/series.csv, "
+      "ready for analyze");
   auto o = std::make_shared<VideoOptions>();
-  sub->add_option("FRAMES", o->frames, "folder of frames (.png .jpg .jpeg .tif .tiff)")->required();
+  sub->add_option("FRAMES", o->frames,
+                  "folder of frames (.png .jpg .jpeg .tif .tiff) or a video file OpenCV can decode")
+      ->required();
   sub->add_option("--fps", o->fps, "frame rate (frames per second)")->required();
   sub->add_option("--rpm", o->rpm, "drum speed (rpm): revolution = rpm t / 60")->required();
   sub->add_option("--out", o->out, "output folder (series.csv, video_check.png)")->required();
@@ -298,9 +316,12 @@ Action register_video(CLI::App& app) {
       ->expected(2);
   o->radius_opt = sub->add_option("--radius-px", o->radius_px, "disc radius in pixels (default: found)");
   o->threshold_opt = sub->add_option("--threshold", o->threshold,
-                                     "grey level 0-255, darker or equal is powder (default: Otsu "
-                                     "inside the disc, per frame)")
+                                     "raw grey level 0-255, darker or equal is powder, no flat field (default: Otsu "
+                                     "of the flat-field corrected disc, per frame)")
                          ->check(CLI::Range(0, 255));
+  sub->add_option("--background", o->background,
+                  "image of the empty, lit drum from the same camera: flat-field reference for "
+                  "uneven back-light and vignetting (default: the back-light is fitted per frame)");
   sub->add_option("--wall-zone-px", o->wall_zone_px,
                   "surface points closer than this to the rim are excluded from r^2 (default: 5 % "
                   "of the radius)");

@@ -225,23 +225,207 @@ double rim_margin(const FrameParams& p, const DrumDisc& d) {
 }
 }  // namespace
 
+namespace {
+
+// Bounding box of the disc, clipped to the image.
+cv::Rect disc_box(cv::Size size, const DrumDisc& d) {
+  const int x0 = std::max(0, static_cast<int>(std::floor(d.cx_px - d.radius_px)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(d.cy_px - d.radius_px)));
+  const int x1 = std::min(size.width, static_cast<int>(std::ceil(d.cx_px + d.radius_px)) + 1);
+  const int y1 = std::min(size.height, static_cast<int>(std::ceil(d.cy_px + d.radius_px)) + 1);
+  return cv::Rect(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
+}
+
+constexpr int kTerms = 7;  // 1, u, v, u^2, uv, v^2, r^4 (u, v = offsets from the centre / R)
+
+std::array<double, kTerms> basis(double u, double v) {
+  const double r2 = u * u + v * v;
+  return {1.0, u, v, u * u, u * v, v * v, r2 * r2};
+}
+
+// Least-squares fit of the basis to the samples (u, v, grey) whose `use` flag is set.
+bool fit_light(const std::vector<std::array<double, 3>>& s, const std::vector<char>& use,
+               std::array<double, kTerms>& coef) {
+  cv::Mat A = cv::Mat::zeros(kTerms, kTerms, CV_64F), b = cv::Mat::zeros(kTerms, 1, CV_64F);
+  std::size_t n = 0;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    if (!use[k]) continue;
+    ++n;
+    const auto f = basis(s[k][0], s[k][1]);
+    for (int i = 0; i < kTerms; ++i) {
+      b.at<double>(i) += f[static_cast<std::size_t>(i)] * s[k][2];
+      for (int j = 0; j < kTerms; ++j)
+        A.at<double>(i, j) += f[static_cast<std::size_t>(i)] * f[static_cast<std::size_t>(j)];
+    }
+  }
+  if (n < 4 * kTerms) return false;
+  cv::Mat x;
+  if (!cv::solve(A, b, x, cv::DECOMP_SVD)) return false;
+  for (int i = 0; i < kTerms; ++i) coef[static_cast<std::size_t>(i)] = x.at<double>(i);
+  return true;
+}
+
+double eval_light(const std::array<double, kTerms>& c, double u, double v) {
+  const auto f = basis(u, v);
+  double y = 0.0;
+  for (std::size_t i = 0; i < f.size(); ++i) y += c[i] * f[i];
+  return y;
+}
+
+}  // namespace
+
+cv::Mat background_illumination(const cv::Mat& gray, const DrumDisc& disc) {
+  cv::Mat f;
+  gray.convertTo(f, CV_32F);
+  const double sigma = std::max(1.0, disc.radius_px / 200.0);
+  cv::GaussianBlur(f, f, cv::Size(0, 0), sigma);
+  cv::max(f, 1.0, f);
+  return f;
+}
+
+cv::Mat estimate_illumination(const cv::Mat& gray, const DrumDisc& disc, double margin_px) {
+  const double margin = margin_px < 0.0 ? std::max(1.5, 0.005 * disc.radius_px) : margin_px;
+  const double R = disc.radius_px;
+  const double r_in = std::max(1.0, R - margin - 1.0);
+  // Samples on a grid of about 150 x 150 over the disc: enough for 7 coefficients, cheap per frame.
+  const int step = std::max(1, static_cast<int>(R / 75.0));
+  const cv::Rect box = disc_box(gray.size(), disc);
+  std::vector<std::array<double, 3>> s;
+  std::array<double, 256> hist{};
+  for (int i = box.y; i < box.y + box.height; i += step) {
+    const auto* g = gray.ptr<std::uint8_t>(i);
+    for (int j = box.x; j < box.x + box.width; j += step) {
+      const double u = (j - disc.cx_px) / R, v = (i - disc.cy_px) / R;
+      if (std::hypot(u, v) * R > r_in) continue;
+      s.push_back({u, v, static_cast<double>(g[j])});
+      hist[g[j]] += 1.0;
+    }
+  }
+  cv::Mat light(gray.size(), CV_32F, cv::Scalar(1.0f));
+  if (s.empty()) return light;
+  // Lit pixels: above Otsu's threshold of the samples when the two classes are clearly apart
+  // (powder passes less than half the light); otherwise the whole disc is lit (an empty drum,
+  // where the split would only cut the vignetting in two).
+  double total = 0.0, sum_all = 0.0;
+  for (int t = 0; t < 256; ++t) {
+    total += hist[static_cast<std::size_t>(t)];
+    sum_all += t * hist[static_cast<std::size_t>(t)];
+  }
+  double w0 = 0.0, sum0 = 0.0, best = -1.0, m0 = kNaN, m1 = kNaN;
+  int t_otsu = 0;
+  for (int t = 0; t < 255; ++t) {
+    w0 += hist[static_cast<std::size_t>(t)];
+    sum0 += t * hist[static_cast<std::size_t>(t)];
+    const double w1 = total - w0;
+    if (w0 <= 0.0 || w1 <= 0.0) continue;
+    const double a0 = sum0 / w0, a1 = (sum_all - sum0) / w1;
+    const double between = w0 * w1 * (a0 - a1) * (a0 - a1);
+    if (between > best) {
+      best = between;
+      t_otsu = t;
+      m0 = a0;
+      m1 = a1;
+    }
+  }
+  std::array<double, kTerms> coef{};
+  std::vector<char> use(s.size(), 1);
+  if (m0 < 0.5 * m1)
+    for (std::size_t k = 0; k < s.size(); ++k) use[k] = s[k][2] > t_otsu;
+  bool ok = fit_light(s, use, coef);
+  if (ok) {
+    for (std::size_t k = 0; k < s.size(); ++k) use[k] = s[k][2] > 0.7 * eval_light(coef, s[k][0], s[k][1]);
+    std::array<double, kTerms> refined{};
+    if (fit_light(s, use, refined)) coef = refined;
+  } else {
+    // Too few lit samples to fit a surface (a nearly full drum): a uniform light at their mean.
+    double sum = 0.0, n = 0.0;
+    for (std::size_t k = 0; k < s.size(); ++k)
+      if (use[k]) {
+        sum += s[k][2];
+        n += 1.0;
+      }
+    coef = {};
+    coef[0] = n > 0.0 ? sum / n : 255.0;
+  }
+  // Evaluated row by row: for a fixed v the surface is a polynomial in u.
+  for (int i = box.y; i < box.y + box.height; ++i) {
+    auto* l = light.ptr<float>(i);
+    const double v = (i - disc.cy_px) / R, v2 = v * v;
+    const double c0 = coef[0] + coef[2] * v + coef[5] * v2;
+    const double c1 = coef[1] + coef[4] * v;
+    for (int j = box.x; j < box.x + box.width; ++j) {
+      const double u = (j - disc.cx_px) / R, u2 = u * u, r2 = u2 + v2;
+      l[j] = static_cast<float>(std::max(1.0, c0 + c1 * u + coef[3] * u2 + coef[6] * r2 * r2));
+    }
+  }
+  return light;
+}
+
+cv::Mat flat_field(const cv::Mat& gray, const cv::Mat& illumination) {
+  if (illumination.size() != gray.size() || illumination.type() != CV_32F)
+    throw Error("flat field: the background differs in size from the frame");
+  cv::Mat g, out;
+  gray.convertTo(g, CV_32F);
+  cv::divide(g, illumination, g, kLitLevel);
+  g.convertTo(out, CV_8U);  // saturates
+  return out;
+}
+
 cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams& params,
                     int* threshold_used) {
   const cv::Mat inside = disc_mask(gray.size(), disc, rim_margin(params, disc));
   int t;
+  cv::Mat dark;
   if (params.threshold) {
     t = *params.threshold;
+    cv::compare(gray, cv::Scalar(t), dark, cv::CMP_LE);
   } else {
+    const cv::Mat light = params.illumination.empty()
+                              ? estimate_illumination(gray, disc, rim_margin(params, disc))
+                              : params.illumination;
+    const cv::Mat corrected = flat_field(gray, light);
     double m0 = kNaN, m1 = kNaN;
-    t = otsu_threshold(gray, inside, &m0, &m1);
+    t = otsu_threshold(corrected, inside, &m0, &m1);
     if (!(m1 - m0 >= params.min_contrast)) t = -1;  // uniform disc: no powder
+    if (t >= 0) cv::compare(corrected, cv::Scalar(t), dark, cv::CMP_LE);
   }
   if (threshold_used) *threshold_used = t;
   cv::Mat mask(gray.size(), CV_8UC1, cv::Scalar(0));
   if (t < 0) return mask;
-  cv::Mat dark;
-  cv::compare(gray, cv::Scalar(t), dark, cv::CMP_LE);
   dark.copyTo(mask, inside);
+
+  // Morphological cleaning: opening removes isolated dark pixels (noise, JPEG ringing, small
+  // dust), closing fills pinholes of light inside the bed; both with an elliptical kernel small
+  // against the bed (R / 80: 3 px for a 250 px disc).
+  int k = params.clean_px;
+  if (k < 0) k = std::max(3, static_cast<int>(disc.radius_px / 80.0) | 1);
+  if (k > 0) {
+    const cv::Mat el = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k));
+    cv::morphologyEx(mask, mask, cv::MORPH_OPEN, el);
+    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, el);
+    mask &= inside;
+  }
+  // The bed is the largest connected dark region: larger dust specks on the end plates and
+  // grains in flight are not powder of the bed.
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  int bed = -1, area = 0;
+  for (int l = 1; l < n; ++l)
+    if (stats.at<int>(l, cv::CC_STAT_AREA) > area) {
+      area = stats.at<int>(l, cv::CC_STAT_AREA);
+      bed = l;
+    }
+  const double disc_area = std::numbers::pi * disc.radius_px * disc.radius_px;
+  if (bed < 0 || area < params.min_bed_fraction * disc_area) {
+    mask.setTo(cv::Scalar(0));
+    return mask;
+  }
+  if (n > 2) cv::compare(labels, cv::Scalar(bed), mask, cv::CMP_EQ);
+  // Light enclosed by the bed (a dust speck in front of the powder divided out by the flat field,
+  // a gap between grains) is not free surface: the bed's holes are filled.
+  std::vector<std::vector<cv::Point>> outline;
+  cv::findContours(mask.clone(), outline, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  cv::drawContours(mask, outline, -1, cv::Scalar(255), cv::FILLED);
   return mask;
 }
 

@@ -29,10 +29,15 @@ enum class Rotation { ccw, cw };
 
 struct FrameParams {
   Rotation rotation = Rotation::ccw;  // as seen in the image; cw mirrors x
-  std::optional<int> threshold;       // grey level; <= threshold is powder. Default: Otsu inside
-                                      // the disc, per frame
+  std::optional<int> threshold;       // raw grey level; <= threshold is powder (no flat field).
+                                      // Default: Otsu of the flat-field corrected disc, per frame
   double rim_margin_px = -1.0;        // ignore this ring inside the rim; < 0: max(1.5 px, 0.5 % R)
-  int min_contrast = 25;              // Otsu classes closer than this (grey levels): no powder
+  int min_contrast = 25;              // Otsu classes closer than this (corrected levels): no powder
+  cv::Mat illumination;               // CV_32F back-light of the empty drum (flat field), e.g.
+                                      // from background_illumination(); empty: fitted per frame
+  double min_bed_fraction = 0.002;    // a largest dark region below this fraction of the disc
+                                      // area is not a bed (dust on an empty drum): no powder
+  int clean_px = -1;                  // opening/closing kernel; < 0: max(3, odd(R / 80)); 0: none
   ImageSurfaceParams surface;         // bin width, wall zone (mirror_x follows `rotation`)
 };
 
@@ -51,7 +56,27 @@ int otsu_threshold(const cv::Mat& gray, const cv::Mat& mask, double* mean_dark =
 /// Filled disc mask (255 inside radius - margin).
 cv::Mat disc_mask(cv::Size size, const DrumDisc& disc, double margin_px);
 
-/// Powder mask (255 = powder) inside the disc; `threshold_used` receives the grey level, -1 when
+/// Level of the lit (empty) disc used in the flat-field corrected image: corrected = kLitLevel *
+/// grey / illumination, so the empty drum is kLitLevel everywhere and the powder near 0.
+inline constexpr double kLitLevel = 200.0;
+
+/// Flat field from an empty-drum reference frame: the grey image as float, smoothed (Gaussian,
+/// sigma max(1 px, R / 200)) so that its noise is not divided into every frame, at least 1.
+cv::Mat background_illumination(const cv::Mat& gray, const DrumDisc& disc);
+
+/// Back-light estimated from the frame itself: a smooth surface (full quadratic in x, y plus a
+/// radial r^4 term about the disc centre) fitted by least squares to the lit pixels of the disc
+/// (those above Otsu's threshold, refined once to those above 70 % of the first fit), evaluated
+/// over the disc's bounding box. Follows vignetting and uneven back-light; CV_32F, at least 1.
+cv::Mat estimate_illumination(const cv::Mat& gray, const DrumDisc& disc, double margin_px = -1.0);
+
+/// Flat-field corrected image (CV_8U): kLitLevel * gray / illumination, saturated.
+cv::Mat flat_field(const cv::Mat& gray, const cv::Mat& illumination);
+
+/// Powder mask (255 = powder) inside the disc: threshold of the flat-field corrected image (Otsu
+/// of the disc's pixels, or the raw --threshold), then morphological opening and closing (camera
+/// noise, JPEG blocks, pinholes) and the largest 8-connected region (the bed: dust specks on the
+/// end plates and grains in flight are dropped) with its holes filled; `threshold_used` receives the grey level, -1 when
 /// the disc shows no contrast (no powder).
 cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams& params,
                     int* threshold_used = nullptr);

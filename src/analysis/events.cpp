@@ -39,8 +39,13 @@ double default_threshold_deg(double sigma, const EventParams& p) {
 }
 
 std::vector<std::pair<std::size_t, std::size_t>> find_drops(std::span<const double> a,
-                                                            double h) {
+                                                            double h, double rebound_fraction,
+                                                            double rebound_cap_deg) {
   if (!(h > 0.0)) throw std::invalid_argument("find_drops: threshold must be > 0");
+  if (!(rebound_fraction >= 0.0) || !std::isfinite(rebound_fraction))
+    throw std::invalid_argument("find_drops: rebound fraction must be >= 0");
+  const double rho = rebound_fraction;
+  const double cap = rebound_cap_deg;
   std::vector<std::pair<std::size_t, std::size_t>> out;
   const std::size_t n = a.size();
   if (n < 2) return out;
@@ -87,9 +92,12 @@ std::vector<std::pair<std::size_t, std::size_t>> find_drops(std::span<const doub
         }
         break;
       case State::falling:
+        // The minimum is confirmed once alpha rose h above it and, with a rebound fraction rho,
+        // rho times the drop so far (at most `cap`): a rebound inside a collapsing avalanche
+        // does not end it. The cap keeps a long drift from swallowing later events.
         if (v < a[imin]) {
           imin = i;
-        } else if (v >= a[imin] + h) {
+        } else if (v >= a[imin] + std::max(h, std::min(rho * (a[event_start] - a[imin]), cap))) {
           close_event(imin);
           state = State::rising;
           imax = i;
@@ -109,10 +117,13 @@ EventDetection detect_events(std::span<const double> t, std::span<const double> 
   det.noise_sigma_deg = estimate_noise_sigma(a);
   det.threshold_from_noise = !p.min_drop_deg.has_value();
   det.threshold_deg = p.min_drop_deg ? *p.min_drop_deg : default_threshold_deg(det.noise_sigma_deg, p);
+  det.rebound_fraction = p.rebound_fraction;
   if (!(det.threshold_deg > 0.0))
     throw std::invalid_argument("detect_events: threshold must be > 0");
 
-  for (const auto& [s, e] : find_drops(a, det.threshold_deg)) {
+  if (!(p.rebound_fraction >= 0.0) || !std::isfinite(p.rebound_fraction))
+    throw std::invalid_argument("detect_events: rebound fraction must be >= 0");
+  for (const auto& [s, e] : find_drops(a, det.threshold_deg, p.rebound_fraction, p.rebound_cap_deg)) {
     Event ev{};
     ev.start_index = s;
     ev.end_index = e;

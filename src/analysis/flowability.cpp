@@ -53,6 +53,8 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   }
   if (opt.events.min_drop_deg && !(*opt.events.min_drop_deg > 0.0))
     throw Error("--min-drop-deg must be > 0");
+  if (!(opt.events.rebound_fraction >= 0.0) || !std::isfinite(opt.events.rebound_fraction))
+    throw Error("--rebound-fraction must be >= 0");
   if (opt.skip_s && !(*opt.skip_s >= 0.0)) throw Error("--skip-s must be >= 0");
   if (opt.skip_rev && !(*opt.skip_rev >= 0.0)) throw Error("--skip-rev must be >= 0");
 
@@ -114,6 +116,22 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
                            deg(res.detection.threshold_deg) +
                            " deg, small (glass-bead) avalanches may be missed; see --min-drop-deg");
   return res;
+}
+
+std::vector<SweepRow> sweep_event_rule(const Series& s, const FlowabilityOptions& opt,
+                                       const std::vector<double>& thresholds_deg,
+                                       const std::vector<double>& rebound_fractions) {
+  std::vector<SweepRow> rows;
+  for (double rho : rebound_fractions)
+    for (double h : thresholds_deg) {
+      FlowabilityOptions o = opt;
+      o.events.min_drop_deg = h;
+      o.events.rebound_fraction = rho;
+      const FlowabilityResult r = analyze_flowability(s, o);
+      rows.push_back(SweepRow{rho, h, r.detection.events.size(), r.distributions[0].p50,
+                              r.distributions[1].p50, r.distributions[2].p50});
+    }
+  return rows;
 }
 
 }  // namespace biodem::analysis

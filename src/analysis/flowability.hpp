@@ -44,4 +44,25 @@ double rpm_from_revolution(const Series& s);
 /// Throws biodem::Error on too few samples or an undeterminable speed.
 FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions& opt);
 
+/// How the events depend on the event rule: one row per (rebound fraction, threshold).
+struct SweepRow {
+  double rebound_fraction;
+  double threshold_deg;
+  std::size_t events;
+  double uas_p50, drop_p50, f_p50;  // medians (NaN when empty)
+};
+
+/// Thresholds of the sweep (deg): the range issue 12 asked for, 0.05 ... 2.
+inline constexpr std::array<double, 7> kSweepThresholdsDeg{0.05, 0.1, 0.25, 0.5, 1.0, 1.5, 2.0};
+
+/// Rebound fractions of the sweep: none, the default, and values either side of it.
+inline std::vector<double> sweep_rebound_fractions() {
+  return {0.0, 0.1, kDefaultReboundFraction, 0.25, 0.5};
+}
+
+/// Runs analyze_flowability for every (rho, h) pair, with the other options of `opt`.
+std::vector<SweepRow> sweep_event_rule(const Series& s, const FlowabilityOptions& opt,
+                                       const std::vector<double>& thresholds_deg,
+                                       const std::vector<double>& rebound_fractions);
+
 }  // namespace biodem::analysis

@@ -10,6 +10,9 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "analysis/backlit_image.hpp"
+#include "analysis/render_frame.hpp"
+
 namespace biodem::analysis {
 
 namespace {
@@ -41,60 +44,6 @@ std::vector<ProfilePoint> longest_run(const std::vector<std::optional<ProfilePoi
 
 }  // namespace
 
-SurfaceParams SurfaceParams::for_particle_diameter(double d_m) {
-  if (!(d_m > 0.0)) throw std::invalid_argument("SurfaceParams: particle diameter must be > 0");
-  return SurfaceParams{2.0 * d_m, 2.0 * d_m, d_m};
-}
-
-std::vector<ProfilePoint> free_surface_profile(std::span<const double> x_m,
-                                               std::span<const double> y_m,
-                                               std::span<const double> radius_m,
-                                               double drum_radius_m, const SurfaceParams& p) {
-  if (x_m.size() != y_m.size() || x_m.size() != radius_m.size())
-    throw std::invalid_argument("free_surface_profile: x, y and radius differ in length");
-  if (!(drum_radius_m > 0.0) || !(p.bin_width_m > 0.0) || !(p.wall_zone_m >= 0.0) ||
-      !(p.max_gap_m >= 0.0))
-    throw std::invalid_argument("free_surface_profile: drum radius and bin width must be > 0");
-
-  const double R = drum_radius_m;
-  const auto n_bins = static_cast<std::size_t>(std::ceil(2.0 * R / p.bin_width_m));
-  std::vector<std::vector<std::size_t>> members(n_bins);
-  for (std::size_t i = 0; i < x_m.size(); ++i) {
-    if (!std::isfinite(x_m[i]) || !std::isfinite(y_m[i])) continue;
-    const double k = std::floor((x_m[i] + R) / p.bin_width_m);
-    if (k < 0.0 || k >= static_cast<double>(n_bins)) continue;
-    members[static_cast<std::size_t>(k)].push_back(i);
-  }
-
-  // Per bin: climb from the lowest particle (resting on the mantle) through particles whose
-  // bottom is within max_gap of the highest top reached so far; the surface point is that
-  // highest top. Whatever lies above a larger gap (grains in flight, clusters thrown or stuck
-  // on the mantle above the bed) is not connected to the bed and is not surface.
-  auto bottom = [&](std::size_t i) { return y_m[i] - radius_m[i]; };
-  std::vector<std::optional<ProfilePoint>> bins(n_bins);
-  for (std::size_t k = 0; k < n_bins; ++k) {
-    auto& m = members[k];
-    if (m.empty()) continue;
-    std::sort(m.begin(), m.end(), [&](std::size_t a, std::size_t b) { return bottom(a) < bottom(b); });
-    const std::size_t first = m.front();
-    if (R - (std::hypot(x_m[first], y_m[first]) + radius_m[first]) > p.max_gap_m) continue;
-    std::size_t best = first;
-    double reach = y_m[first] + radius_m[first];
-    for (std::size_t j = 1; j < m.size(); ++j) {
-      const std::size_t i = m[j];
-      if (bottom(i) - reach > p.max_gap_m) break;  // sorted by bottom: nothing above connects
-      if (y_m[i] + radius_m[i] > reach) {
-        reach = y_m[i] + radius_m[i];
-        best = i;
-      }
-    }
-    // Surface points in the wall zone (the meniscus at the contacts, powder carried up on the
-    // mantle) are excluded.
-    if (std::hypot(x_m[best], reach) <= R - p.wall_zone_m) bins[k] = ProfilePoint{x_m[best], reach};
-  }
-  return longest_run(bins);
-}
-
 SurfaceFit fit_surface_line(std::span<const ProfilePoint> pts) {
   const std::size_t n = pts.size();
   if (n < 3) return SurfaceFit{kNaN, kNaN, n, false};
@@ -123,11 +72,25 @@ SurfaceFit fit_surface_line(std::span<const ProfilePoint> pts) {
   return SurfaceFit{r2, angle, n, true};
 }
 
+SurfaceParams SurfaceParams::for_frames(int frame_size_px) {
+  SurfaceParams p;
+  p.raster_px = frame_size_px;
+  return p;
+}
+
 SurfaceFit fit_free_surface(std::span<const double> x_m, std::span<const double> y_m,
                             std::span<const double> radius_m, double drum_radius_m,
                             const SurfaceParams& params) {
-  const auto profile = free_surface_profile(x_m, y_m, radius_m, drum_radius_m, params);
-  return fit_surface_line(profile);
+  if (params.raster_px < 16) throw std::invalid_argument("fit_free_surface: raster must be >= 16 px");
+  const BacklitStyle style{};
+  const cv::Mat frame = render_backlit_frame(x_m, y_m, radius_m, drum_radius_m, params.raster_px, style);
+  FrameParams fp;
+  fp.surface = params.image;
+  // The grey levels of a rendered frame are known: the midpoint between the particles' and the
+  // lit disc's level is the threshold (what Otsu finds on such a frame, without estimating the
+  // back-light: the render costs less per sample).
+  fp.threshold = (style.particle + style.disc) / 2;
+  return measure_backlit_frame(frame, rendered_disc(params.raster_px, style), fp).surface;
 }
 
 std::vector<ProfilePoint> free_surface_profile_mask(const cv::Mat& mask, double cx, double cy,

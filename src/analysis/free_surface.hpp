@@ -11,18 +11,12 @@
 // Coordinates are in the drum cross-section, relative to the drum centre, y up; for a drum
 // turning counter-clockwise seen from +z the bed rises at +x.
 //
-// Profile rule for particles (documented in docs/analysis.md):
-//   * bins of width `bin_width_m` span [-R, R] in x; a particle belongs to the bin of its centre;
-//   * in each bin the column is climbed from its lowest particle, which must rest on the mantle
-//     (gap to the mantle at most `max_gap_m`), through every particle whose bottom (y - r) is
-//     within `max_gap_m` of the highest top (y + r) reached so far; the bin's surface point is
-//     that highest top (x of its particle). Grains in flight and clusters thrown or stuck to the
-//     mantle above the bed are separated from the bed by a larger gap and are not surface;
-//   * a surface point within `wall_zone_m` of the mantle (distance from the centre greater than
-//     R - wall_zone_m) is excluded: that removes the meniscus against the wall at the bed's two
-//     contacts and the columns beyond them;
-//   * the profile is the longest run of consecutive bins that kept a point, i.e. the surface
-//     between the bed's two contacts with the mantle.
+// One method for simulations and images (issue 12): the free surface is always taken from a
+// binary image of the bed's cross-section, the shadow the camera sees. A simulation's particles
+// are first drawn as a back-lit frame with the renderer of `frames/*.png`
+// (render_backlit_frame, SurfaceParams::raster_px wide) and that frame goes through the video
+// path (measure_backlit_frame with the known disc), so r^2 from a run and r^2 from `biodem video`
+// on the run's own frames differ only by the disc the video finds (sub-pixel).
 //
 // Image rule (binary mask, 255 = powder): the mask is reduced to its largest 8-connected
 // component (the bed; detached particles in flight are dropped); per image column the bed is
@@ -46,32 +40,10 @@ struct SurfaceFit {
   bool valid;         // bins_used >= 3
 };
 
-struct SurfaceParams {
-  double bin_width_m;  // width of the vertical bins
-  double wall_zone_m;  // surface points closer than this to the mantle are excluded
-  double max_gap_m;    // a particle more than this above the bed below it is not connected
-
-  /// Defaults from the (largest) particle diameter d: bins of 2 d, wall zone 2 d, gap d.
-  static SurfaceParams for_particle_diameter(double d_m);
-};
-
 struct ProfilePoint {
   double x;
   double y;
 };
-
-/// Surface profile of a bed of circles (x, y, radius; drum-centred, y up), one point per bin,
-/// ordered by x. Throws std::invalid_argument if the spans differ in length or a parameter is
-/// not positive.
-std::vector<ProfilePoint> free_surface_profile(std::span<const double> x_m,
-                                               std::span<const double> y_m,
-                                               std::span<const double> radius_m,
-                                               double drum_radius_m, const SurfaceParams& params);
-
-/// Profile extraction followed by the straight-line fit.
-SurfaceFit fit_free_surface(std::span<const double> x_m, std::span<const double> y_m,
-                            std::span<const double> radius_m, double drum_radius_m,
-                            const SurfaceParams& params);
 
 /// Least-squares line y on x through the points; r^2 and angle as above.
 SurfaceFit fit_surface_line(std::span<const ProfilePoint> profile);
@@ -83,6 +55,16 @@ struct ImageSurfaceParams {
   bool mirror_x = false;      // drum seen turning clockwise
 };
 
+/// The free surface of a simulation's particles: rendered as a back-lit frame of raster_px x
+/// raster_px pixels (the drum disc 0.92 of it, as `frames/*.png`) and measured as a video frame.
+struct SurfaceParams {
+  int raster_px = 512;         // as [output] frame_size_px (default 512)
+  ImageSurfaceParams image{};  // bin width, wall zone, gap in pixels of that raster
+
+  /// The raster of the run's frames, so that its r^2 and the frames' agree.
+  static SurfaceParams for_frames(int frame_size_px);
+};
+
 /// Surface profile of a binary powder mask (CV_8U, non-zero = powder) inside a disc of centre
 /// (cx_px, cy_px) (pixel-centre coordinates: pixel (row i, column j) is at x = j, y = i) and
 /// radius radius_px. Returned points are centred on the disc, y up, in pixels.
@@ -92,5 +74,12 @@ std::vector<ProfilePoint> free_surface_profile_mask(const cv::Mat& mask, double 
 
 SurfaceFit fit_free_surface_mask(const cv::Mat& mask, double cx_px, double cy_px,
                                  double radius_px, const ImageSurfaceParams& params);
+
+/// Free surface of a bed of circles (x, y, radius in metres; drum-centred, y up, seen from +z)
+/// by the image method above; the fit's x and y are in pixels of the raster. Throws
+/// std::invalid_argument if the spans differ in length or the drum radius or raster is not > 0.
+SurfaceFit fit_free_surface(std::span<const double> x_m, std::span<const double> y_m,
+                            std::span<const double> radius_m, double drum_radius_m,
+                            const SurfaceParams& params);
 
 }  // namespace biodem::analysis

@@ -43,4 +43,9 @@ cv::Mat render_backlit_frame(std::span<const double> x_m, std::span<const double
   return render_backlit_frame(x_m, y_m, r_m, drum_radius_m, size_px, BacklitStyle{});
 }
 
+DrumDisc rendered_disc(int size_px, const BacklitStyle& style) {
+  const double c = 0.5 * (size_px - 1);
+  return DrumDisc{c, c, 0.5 * style.disc_fraction * size_px};
+}
+
 }  // namespace biodem::analysis

@@ -5,6 +5,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/backlit_image.hpp"
+
 namespace biodem::analysis {
 
 struct BacklitStyle {
@@ -25,5 +27,9 @@ cv::Mat render_backlit_frame(std::span<const double> x_m, std::span<const double
 
 cv::Mat render_backlit_frame(std::span<const double> x_m, std::span<const double> y_m,
                              std::span<const double> r_m, double drum_radius_m, int size_px);
+
+/// The drum disc as drawn by render_backlit_frame (centre (size - 1) / 2, radius
+/// disc_fraction * size / 2), for measuring rendered frames without searching for it.
+DrumDisc rendered_disc(int size_px, const BacklitStyle& style);
 
 }  // namespace biodem::analysis

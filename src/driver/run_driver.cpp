@@ -520,15 +520,9 @@ RunSummary Runner::run() {
   if (cfg_.output.frame_every_s) frame_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.frame_every_s, dt));
   if (cfg_.output.checkpoint_every_s)
     checkpoint_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.checkpoint_every_s, dt));
-  {
-    // Free-surface profile parameters scale with the particle size: the largest volume-equivalent
-    // diameter among the inserted shapes, or among all shapes for explicit scenes.
-    double d = 0.0;
-    for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
-    if (built_.populations.empty())
-      for (const auto& t : sim_.templates()) d = std::max(d, t.equivalent_diameter_m());
-    surface_params_ = analysis::SurfaceParams::for_particle_diameter(d > 0.0 ? d : 1e-3);
-  }
+  // The free surface is measured on the cross-section rendered as the run's frames (one method
+  // for runs and videos, docs/analysis.md section 4).
+  surface_params_ = analysis::SurfaceParams::for_frames(static_cast<int>(cfg_.output.frame_size_px));
 
   const auto phases = plan_phases(cfg_);
   total_steps_estimate_ = 1;

@@ -215,4 +215,16 @@ void SeriesWriter::flush() {
   if (!out_) throw Error("writing '" + path_.string() + "' failed");
 }
 
+void write_sweep_csv(const std::filesystem::path& path, const std::string& sample,
+                     const std::vector<analysis::SweepRow>& rows, bool header, bool with_sample) {
+  std::ofstream out(path, header ? std::ios::trunc : std::ios::app);
+  if (header)
+    out << (with_sample ? "sample," : "") << "rebound_fraction,threshold_deg,events,uas_p50,drop_p50,f_p50\n";
+  for (const auto& r : rows)
+    out << (with_sample ? sample + "," : "") << csv_number(r.rebound_fraction) << ','
+        << csv_number(r.threshold_deg) << ',' << r.events << ',' << csv_number(r.uas_p50) << ','
+        << csv_number(r.drop_p50) << ',' << csv_number(r.f_p50) << '\n';
+  if (!out) throw Error("cannot write '" + path.string() + "'");
+}
+
 }  // namespace biodem::io

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/flowability.hpp"
 #include "analysis/series.hpp"
 
 namespace biodem::io {
@@ -76,5 +77,12 @@ class SeriesWriter {
 
 /// A number for a CSV cell: shortest form with `digits` significant digits; "" for NaN/inf.
 std::string csv_number(double v, int digits = 10);
+
+/// Writes an event-rule sweep (analysis::sweep_event_rule) as CSV: columns [sample,]
+/// rebound_fraction, threshold_deg, events, uas_p50, drop_p50, f_p50. `sample` names the rows
+/// (a first column when `with_sample`). Starts the file with a header row when `header`, else
+/// appends. Throws biodem::Error when the file cannot be written.
+void write_sweep_csv(const std::filesystem::path& path, const std::string& sample,
+                     const std::vector<analysis::SweepRow>& rows, bool header, bool with_sample = false);
 
 }  // namespace biodem::io

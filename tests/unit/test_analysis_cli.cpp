@@ -274,3 +274,97 @@ TEST(AnalysisCli, VideoSeriesIsReadyForAnalyze) {
   EXPECT_TRUE(contains(r.output, "events: 3")) << r.output;
   EXPECT_TRUE(contains(r.output, "1 rpm")) << r.output;
 }
+
+namespace {
+std::size_t count_of(const std::string& s, const std::string& part) {
+  std::size_t n = 0;
+  for (auto at = s.find(part); at != std::string::npos; at = s.find(part, at + 1)) ++n;
+  return n;
+}
+}  // namespace
+
+// Issue 12, item 4: a 3-revolution series (18,000 samples at 50 Hz, 0.5 rpm) with 450 events.
+// The overview marks only the event starts (one small marker per event, no end markers: 450 + 1
+// in the legend), a zoom plot shows the first 20 events with starts and ends (40 + 2), and the r^2
+// plot adds a running median. With 19 events the overview keeps both markers (38 + 2).
+TEST(AnalysisCli, PlotsOfLongSeriesWithHundredsOfEvents) {
+  test::TempDir dir("cli_long_plots");
+  write_series(dir / "long", 3.0, 40, 0.9, 18000, 20);
+  const auto r = test::run_biodem("analyze " + test::quote(dir / "long"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "events: 450")) << r.output;
+  const std::string svg = test::read_text(dir / "long" / "alpha_vs_revolution.svg");
+  EXPECT_EQ(count_of(svg, "<polygon"), 450u + 1u);
+  EXPECT_TRUE(contains(svg, "alpha_vs_revolution_zoom shows the first 20"));
+  const std::string zoom = test::read_text(dir / "long" / "alpha_vs_revolution_zoom.svg");
+  EXPECT_EQ(count_of(zoom, "<polygon"), 40u + 2u);
+  EXPECT_FALSE(cv::imread((dir / "long" / "alpha_vs_revolution_zoom.png").string()).empty());
+  EXPECT_TRUE(contains(test::read_text(dir / "long" / "r2_vs_time.svg"), "running median"));
+
+  write_series(dir / "short", 3.0, 100, 0.95);
+  ASSERT_EQ(test::run_biodem("analyze " + test::quote(dir / "short")).status, 0);
+  EXPECT_EQ(count_of(test::read_text(dir / "short" / "alpha_vs_revolution.svg"), "<polygon"), 38u + 2u);
+  EXPECT_FALSE(fs::exists(dir / "short" / "alpha_vs_revolution_zoom.svg"));
+}
+
+// Issue 12: compare applies one event rule to every sample. Sample "noisy" has 0.05 deg Gaussian
+// noise (default threshold 8 sigma ~ 0.4 deg) and "clean" none (threshold 0.05 deg); both have
+// 3 deg avalanches every 100 samples and 0.15 deg small drops in between. With one rule (the
+// default: the larger threshold for both) neither counts the small drops: 19 events each; with
+// --per-sample-threshold the clean sample also counts its 19 small drops (38).
+TEST(AnalysisCli, CompareUsesOneThresholdForAllSamples) {
+  test::TempDir dir("cli_compare_rule");
+  for (const char* name : {"clean", "noisy"}) {
+    fs::create_directories(dir / name);
+    io::SeriesWriter w(dir / name, false);
+    test::Noise rng(3);
+    double a = 40.0;
+    for (std::size_t i = 0; i < 2000; ++i) {
+      io::SeriesRow r;
+      r.time_s = 0.02 * static_cast<double>(i);
+      r.revolution = 0.5 * r.time_s / 60.0;
+      const std::size_t k = i % 100;
+      if (i > 100 && (k == 1 || k == 2)) a -= 1.5;                   // 3 deg avalanche at 100, 200, ...
+      else if (i > 100 && k == 51) a -= 0.15 + 0.06;                 // 0.15 deg drop at 150, 250, ...
+      else if (i > 0) a += 0.06;
+      r.alpha_deg = a + (std::string(name) == "noisy" ? rng.gaussian(0.05) : 0.0);
+      w.write(r);
+    }
+  }
+  auto count = [&](const fs::path& csv, const std::string& sample) {
+    for (const auto& row : read_csv(csv))
+      if (row[0] == sample && row[1] == "uas_deg") return row[2];
+    return std::string("?");
+  };
+  const auto r = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "noisy") +
+                                  " --no-plots --out " + test::quote(dir / "one"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "for every sample (the largest noise-based default: noisy)")) << r.output;
+  EXPECT_EQ(count(dir / "one" / "compare.csv", "clean"), "19");
+  EXPECT_EQ(count(dir / "one" / "compare.csv", "noisy"), "19");
+  const auto p = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "noisy") +
+                                  " --no-plots --per-sample-threshold --out " + test::quote(dir / "per"));
+  ASSERT_EQ(p.status, 0) << p.output;
+  EXPECT_EQ(count(dir / "per" / "compare.csv", "clean"), "38");
+  EXPECT_EQ(count(dir / "per" / "compare.csv", "noisy"), "19");
+
+  // --sweep: events against the threshold; the clean sample's 0.15 deg drops count below 0.15 deg
+  // only; 7 thresholds x 5 rebound fractions per sample; plots written.
+  const auto w = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "noisy") +
+                                  " --sweep --out " + test::quote(dir / "sweep"));
+  ASSERT_EQ(w.status, 0) << w.output;
+  const auto rows = read_csv(dir / "sweep" / "compare_sweep.csv");
+  ASSERT_EQ(rows.size(), 1u + 2u * 7u * 5u);
+  EXPECT_EQ(rows[0], (std::vector<std::string>{"sample", "rebound_fraction", "threshold_deg", "events", "uas_p50",
+                                                "drop_p50", "f_p50"}));
+  auto events_at = [&](const std::string& sample, const std::string& rho, const std::string& h) {
+    for (const auto& row : rows)
+      if (row[0] == sample && row[1] == rho && row[2] == h) return row[3];
+    return std::string("?");
+  };
+  EXPECT_EQ(events_at("clean", "0.15", "0.1"), "38");
+  EXPECT_EQ(events_at("clean", "0.15", "0.25"), "19");
+  EXPECT_EQ(events_at("clean", "0", "2"), "19");
+  for (const char* stem : {"compare_sweep_events", "compare_sweep_uas", "compare_sweep_drop", "compare_sweep_f"})
+    EXPECT_FALSE(cv::imread((dir / "sweep" / (std::string(stem) + ".png")).string()).empty()) << stem;
+}

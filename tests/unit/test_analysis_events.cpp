@@ -228,3 +228,54 @@ TEST(AnalysisFlowability, BadInputsGiveClearErrors) {
   o.events.min_drop_deg = -1.0;
   EXPECT_THROW(analyze_flowability(s, o), Error);
 }
+
+// Issue 12: biomass-like avalanches (4 to 15 deg over 12 to 30 samples) each with one rebound
+// inside the collapse (alpha goes back up by 8 % of the drop so far, 0.16 to 0.6 deg: well above
+// the 0.05 deg floor, so the plain zig-zag splits them), mixed with small glass-like events (0.2 to
+// 0.5 deg, one pair only 0.12 deg of rise apart). The default rule counts each avalanche once, with
+// its full drop, and still finds every glass-like event; the rule without rebound fraction
+// (rho = 0) splits the avalanches.
+TEST(AnalysisEvents, DefaultRuleCountsAvalanchesWithReboundsOnce) {
+  struct Avalanche {
+    std::size_t peak;
+    double drop;
+    std::size_t duration;
+  };
+  const std::vector<Avalanche> planted{{150, 0.3, 2},   {260, 8.0, 20},  {520, 0.25, 2}, {600, 0.45, 3},
+                                       {605, 0.2, 2},   {760, 15.0, 30}, {1050, 4.0, 12}, {1250, 0.5, 4},
+                                       {1400, 10.0, 25}};
+  const std::size_t n = 1700;
+  std::vector<double> t(n), rev(n), a(n, 130.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    double step = kRise;
+    for (const auto& e : planted)
+      if (i > e.peak && i <= e.peak + e.duration) {
+        const auto k = i - e.peak;  // 1 ... duration
+        step = -e.drop / static_cast<double>(e.duration);
+        // Big avalanches rebound once, half-way: alpha rises by 8 % of the drop so far.
+        if (e.drop > 1.0 && k == e.duration / 2 + 1) step = 0.08 * e.drop / 2.0;
+        if (e.drop > 1.0 && k == e.duration / 2 + 2) step = -2.0 * e.drop / static_cast<double>(e.duration) - 0.08 * e.drop / 2.0;
+      }
+    a[i] = a[i - 1] + step;
+  }
+  // Glass-like pair: the 0.2 deg event starts 2 samples (0.12 deg of rise) after the 0.45 deg one
+  // ends: with rho up to 0.25 it stays a separate event.
+  test::Noise rng(5);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = static_cast<double>(i) * kDt;
+    rev[i] = kRpm * t[i] / 60.0;
+    a[i] += rng.uniform(0.003);
+  }
+  const auto det = detect_events(t, rev, a, kRpm, EventParams{});
+  EXPECT_DOUBLE_EQ(det.threshold_deg, 0.05);
+  ASSERT_EQ(det.events.size(), planted.size());
+  for (std::size_t k = 0; k < planted.size(); ++k) {
+    EXPECT_EQ(det.events[k].start_index, planted[k].peak) << "event " << k;
+    const double full = planted[k].drop;  // a rebound does not change the net drop
+    EXPECT_NEAR(det.events[k].drop_deg, full, 0.01) << "event " << k;
+  }
+  EventParams plain;
+  plain.rebound_fraction = 0.0;
+  const auto split = detect_events(t, rev, a, kRpm, plain);
+  EXPECT_EQ(split.events.size(), planted.size() + 4) << "rho = 0 splits each of the 4 avalanches";
+}

@@ -60,7 +60,12 @@ inline CommandResult run_biodem(const std::string& args) {
   return r;
 }
 
-inline std::string quote(const fs::path& p) { return "'" + p.string() + "'"; }
+inline std::string quote(const fs::path& p) {
+  std::string s(1, '\'');  // built in steps: GCC 12 warns (-Wrestrict) on "'" + s + "'" inlined
+  s += p.string();
+  s += '\'';
+  return s;
+}
 
 inline std::string read_text(const fs::path& p) {
   std::ifstream in(p);

@@ -57,16 +57,19 @@ auto tilted(double theta_deg, double c) {
 
 }  // namespace
 
+// Particles go through the image method: rendered on a 512 px raster (as the run's frames; 1 mm
+// beads in the 100 mm drum are 4.7 px wide) and measured as a video frame.
+SurfaceParams raster512() { return SurfaceParams::for_frames(512); }
+
 // A flat bed tilted by 30 deg: angle within 1 deg (lattice steps of one diameter over a 9 cm
 // chord), r^2 above 0.995.
 TEST(AnalysisFreeSurface, FlatTiltedBedOfParticles) {
   const Bed b = lattice_bed(tilted(30.0, -0.01));
-  const auto p = SurfaceParams::for_particle_diameter(kD);
-  EXPECT_DOUBLE_EQ(p.bin_width_m, 2 * kD);
-  EXPECT_DOUBLE_EQ(p.wall_zone_m, 2 * kD);
+  const auto p = raster512();
+  EXPECT_EQ(p.raster_px, 512);
   const auto fit = fit_free_surface(b.x, b.y, b.r, kR, p);
   ASSERT_TRUE(fit.valid);
-  EXPECT_GT(fit.bins_used, 25u);
+  EXPECT_GT(fit.bins_used, 100u);  // one bin per pixel column of the raster
   EXPECT_NEAR(fit.angle_deg, 30.0, 1.0);
   EXPECT_GT(fit.r2, 0.995);
   // Mirror image: the surface now falls towards +x.
@@ -77,10 +80,12 @@ TEST(AnalysisFreeSurface, FlatTiltedBedOfParticles) {
 }
 
 // Particles in flight above the surface and powder stuck on the mantle above the bed are not
-// surface: the fit is unchanged (to rounding).
+// surface (not part of the largest dark region): the fit is unchanged (within 1e-3 in r^2 and
+// 0.05 deg: the extra dark pixels may move Otsu's threshold by a grey level, i.e. the
+// anti-aliased edge pixels).
 TEST(AnalysisFreeSurface, ParticlesInFlightAndOnTheWallAreIgnored) {
   Bed b = lattice_bed(tilted(25.0, 0.0));
-  const auto p = SurfaceParams::for_particle_diameter(kD);
+  const auto p = raster512();
   const auto ref = fit_free_surface(b.x, b.y, b.r, kR, p);
   const double t = std::tan(25.0 * kPi / 180.0);
   for (double x : {-0.03, -0.01, 0.005, 0.02}) b.add(x, t * x + 4 * kD);  // in flight
@@ -90,16 +95,16 @@ TEST(AnalysisFreeSurface, ParticlesInFlightAndOnTheWallAreIgnored) {
   b.add((kR - kD / 2) * std::sin(a), (kR - kD / 2) * -std::cos(a));
   b.add((kR - 1.5 * kD) * std::sin(a), (kR - 1.5 * kD) * -std::cos(a));
   const auto fit = fit_free_surface(b.x, b.y, b.r, kR, p);
-  EXPECT_EQ(fit.bins_used, ref.bins_used);
-  EXPECT_NEAR(fit.r2, ref.r2, 1e-12);
-  EXPECT_NEAR(fit.angle_deg, ref.angle_deg, 1e-9);
+  EXPECT_NEAR(static_cast<double>(fit.bins_used), static_cast<double>(ref.bins_used), 2.0);
+  EXPECT_NEAR(fit.r2, ref.r2, 1e-3);
+  EXPECT_NEAR(fit.angle_deg, ref.angle_deg, 0.05);
 }
 
 // A rough (stepped and wavy) surface has a clearly lower r^2.
 TEST(AnalysisFreeSurface, RoughSurfaceHasLowerR2) {
-  const auto p = SurfaceParams::for_particle_diameter(kD);
-  const auto flat = fit_free_surface(lattice_bed(tilted(20.0, 0.0)).x, lattice_bed(tilted(20.0, 0.0)).y,
-                                     lattice_bed(tilted(20.0, 0.0)).r, kR, p);
+  const auto p = raster512();
+  const Bed flat_bed = lattice_bed(tilted(20.0, 0.0));
+  const auto flat = fit_free_surface(flat_bed.x, flat_bed.y, flat_bed.r, kR, p);
   const Bed wavy = lattice_bed([](double x) { return 0.36 * x + 0.006 * std::sin(2 * kPi * x / 0.03); });
   const auto w = fit_free_surface(wavy.x, wavy.y, wavy.r, kR, p);
   const Bed steps = lattice_bed([](double x) { return 0.012 * std::floor(x / 0.025); });
@@ -110,16 +115,16 @@ TEST(AnalysisFreeSurface, RoughSurfaceHasLowerR2) {
   EXPECT_LT(s.r2, flat.r2 - 0.04);
 }
 
-TEST(AnalysisFreeSurface, FewerThanThreeBinsIsNaN) {
+// Two particles are no bed (a dark region under 0.2 % of the disc): no fit.
+TEST(AnalysisFreeSurface, NoBedIsNaN) {
   Bed b;
   b.add(0.0, -kR + kD / 2);
   b.add(0.0011, -kR + kD);
-  const auto fit = fit_free_surface(b.x, b.y, b.r, kR, SurfaceParams::for_particle_diameter(kD));
+  const auto fit = fit_free_surface(b.x, b.y, b.r, kR, raster512());
   EXPECT_FALSE(fit.valid);
   EXPECT_TRUE(std::isnan(fit.r2));
   const std::vector<double> one{0.0};
-  EXPECT_THROW(fit_free_surface(one, one, std::vector<double>{}, kR, SurfaceParams::for_particle_diameter(kD)),
-               std::invalid_argument);
+  EXPECT_THROW(fit_free_surface(one, one, std::vector<double>{}, kR, raster512()), std::invalid_argument);
 }
 
 TEST(AnalysisFreeSurface, StraightLineFitOfAProfile) {

@@ -1,0 +1,166 @@
+#include "analysis/video_frames.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <string_view>
+#include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "core/error.hpp"
+
+namespace biodem::analysis {
+
+namespace fs = std::filesystem;
+
+cv::Mat to_grey8(const cv::Mat& image) {
+  if (image.empty()) return {};
+  cv::Mat img = image;
+  if (img.depth() == CV_16U) {
+    img.convertTo(img, CV_8U, 1.0 / 257.0);
+  } else if (img.depth() != CV_8U) {
+    return {};
+  }
+  cv::Mat grey;
+  switch (img.channels()) {
+    case 1: grey = img.clone(); break;
+    case 3: cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY); break;
+    case 4: cv::cvtColor(img, grey, cv::COLOR_BGRA2GRAY); break;
+    default: return {};
+  }
+  return grey;
+}
+
+bool is_frame_file(const fs::path& p) {
+  std::string ext = p.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff";
+}
+
+bool natural_less(const std::string& a, const std::string& b) {
+  std::size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    if (std::isdigit(static_cast<unsigned char>(a[i])) && std::isdigit(static_cast<unsigned char>(b[j]))) {
+      std::size_t ie = i, je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      std::string_view da(a.data() + i, ie - i), db(b.data() + j, je - j);
+      while (da.size() > 1 && da.front() == '0') da.remove_prefix(1);
+      while (db.size() > 1 && db.front() == '0') db.remove_prefix(1);
+      if (da.size() != db.size()) return da.size() < db.size();
+      if (da != db) return da < db;
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  if ((a.size() - i) != (b.size() - j)) return (a.size() - i) < (b.size() - j);
+  return a < b;
+}
+
+std::vector<fs::path> list_frame_files(const std::string& folder) {
+  std::error_code ec;
+  if (!fs::exists(folder, ec)) throw Error("frames folder '" + folder + "' does not exist");
+  if (!fs::is_directory(folder, ec)) throw Error("frames '" + folder + "' is not a folder");
+  std::vector<fs::path> frames;
+  for (const auto& e : fs::directory_iterator(folder, ec))
+    if (e.is_regular_file() && is_frame_file(e.path())) frames.push_back(e.path());
+  if (ec) throw Error("cannot list frames folder '" + folder + "': " + ec.message());
+  if (frames.empty())
+    throw Error("no frames (.png, .jpg, .jpeg, .tif, .tiff) in folder '" + folder + "'");
+  std::sort(frames.begin(), frames.end(), [](const fs::path& a, const fs::path& b) {
+    return natural_less(a.filename().string(), b.filename().string());
+  });
+  return frames;
+}
+
+namespace {
+
+class FolderSource final : public FrameSource {
+ public:
+  explicit FolderSource(const std::string& folder) : files_(list_frame_files(folder)) {}
+  bool next(VideoFrame& f) override {
+    if (pos_ >= files_.size()) return false;
+    f = VideoFrame{};
+    f.index = pos_;
+    f.path = files_[pos_];
+    f.name = files_[pos_].filename().string();
+    ++pos_;
+    return true;
+  }
+  void load(VideoFrame& f) const override {
+    if (!f.grey.empty() || f.path.empty()) return;
+    try {
+      f.grey = to_grey8(cv::imread(f.path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR));
+    } catch (const cv::Exception&) {
+      f.grey.release();
+    }
+  }
+  std::size_t size_hint() const override { return files_.size(); }
+  bool is_video() const override { return false; }
+
+ private:
+  std::vector<fs::path> files_;
+  std::size_t pos_ = 0;
+};
+
+class VideoSource final : public FrameSource {
+ public:
+  explicit VideoSource(const std::string& path) {
+    bool opened = false;
+    try {
+      opened = cap_.open(path, cv::CAP_ANY);
+    } catch (const cv::Exception&) {
+      opened = false;
+    }
+    if (!opened || !cap_.isOpened())
+      throw Error("cannot open video '" + path + "' (not a video OpenCV can decode)");
+    const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
+    count_ = n > 0.0 && n < 1e9 ? static_cast<std::size_t>(n) : 0;
+    fps_ = cap_.get(cv::CAP_PROP_FPS);
+    if (!(fps_ > 0.0) || fps_ > 1e6) fps_ = 0.0;
+  }
+  bool next(VideoFrame& f) override {
+    cv::Mat img;
+    bool ok = false;
+    try {
+      ok = cap_.read(img);
+    } catch (const cv::Exception&) {
+      ok = false;
+    }
+    if (!ok || img.empty()) return false;  // end of the film (or a stream that cannot go on)
+    f = VideoFrame{};
+    f.index = pos_;
+    f.name = "frame " + std::to_string(pos_);
+    f.grey = to_grey8(img);
+    ++pos_;
+    return true;
+  }
+  void load(VideoFrame&) const override {}
+  std::size_t size_hint() const override { return std::max(count_, pos_); }
+  bool is_video() const override { return true; }
+  double container_fps() const override { return fps_; }
+
+ private:
+  cv::VideoCapture cap_;
+  std::size_t count_ = 0, pos_ = 0;
+  double fps_ = 0.0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> FrameSource::open(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error("frames folder or video '" + path + "' does not exist");
+  if (fs::is_directory(path, ec)) return std::make_unique<FolderSource>(path);
+  if (!fs::is_regular_file(path, ec)) throw Error("frames '" + path + "' is not a folder or a video file");
+  return std::make_unique<VideoSource>(path);
+}
+
+}  // namespace biodem::analysis
