@@ -289,7 +289,10 @@ Action register_analyze(CLI::App& app) {
                 "also write threshold_sweep.csv: events and medians for thresholds 0.05 ... 2 deg "
                 "and rebound fractions 0, 0.1, 0.15, 0.25, 0.5");
   sub->add_flag("--no-plots", o->no_plots, "write the CSV files only");
-  return [o] { return run_analyze(*o); };
+  return [o] {
+    if (!io::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
+    return run_analyze(*o);
+  };
 }
 
 }  // namespace biodem::cli

@@ -280,7 +280,10 @@ Action register_compare(CLI::App& app) {
   o->skip_rev_opt = sub->add_option("--skip-rev", o->skip_rev, "skip the first R revolutions");
   o->rpm_opt = sub->add_option("--rpm", o->rpm, "drum speed for every sample (default: from each series)");
   sub->add_flag("--no-plots", o->no_plots, "write compare.csv only");
-  return [o] { return run_compare(*o); };
+  return [o] {
+    if (!io::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
+    return run_compare(*o);
+  };
 }
 
 }  // namespace biodem::cli

@@ -14,11 +14,15 @@
 #include <random>
 #include <sstream>
 
+#if BIODEM_HAVE_OPENCV
 #include <opencv2/imgcodecs.hpp>
+#endif
 
 #include "analysis/centroid_angle.hpp"
+#if BIODEM_HAVE_OPENCV
 #include "analysis/free_surface.hpp"
 #include "analysis/render_frame.hpp"
+#endif
 #include "io/checkpoint.hpp"
 #include "io/series_csv.hpp"
 #include "core/error.hpp"
@@ -84,6 +88,10 @@ class Runner {
     // stops here with one line.
     if (device_ == config::Device::Gpu) dev_ = gpu::make_device_engine(gpu::Backend::Cuda, sim_);
     if (device_ == config::Device::GpuEmulated) dev_ = gpu::make_device_engine(gpu::Backend::HostThreads, sim_);
+#if !BIODEM_HAVE_OPENCV
+    if (cfg_.output.frame_every_s)
+      throw Error(cfg_.source_path + ": [output] frame_every_s: back-lit frames are not built in this lean build (no OpenCV)");
+#endif
   }
 
   RunSummary run();
@@ -120,7 +128,9 @@ class Runner {
   std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
   std::size_t frame_index_ = 0;
   std::uint64_t last_sample_step_ = ~std::uint64_t{0}, last_snapshot_step_ = ~std::uint64_t{0};
+#if BIODEM_HAVE_OPENCV
   analysis::SurfaceParams surface_params_{};
+#endif
   std::uint64_t case_hash_ = 0;
   // Where the run is, for checkpoints.
   std::size_t phase_index_ = 0;
@@ -192,6 +202,7 @@ void Runner::sample() {
   row.time_s = sim_.time_s();
   row.revolution = revolution();
   row.alpha_deg = m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m) : std::numeric_limits<double>::quiet_NaN();
+#if BIODEM_HAVE_OPENCV  // the free surface is measured on the rendered cross-section (none in the lean build)
   if (built_.drum && sim_.spheres().size() > 0) {
     const auto& s = sim_.spheres();
     std::vector<double> x(s.size()), y(s.size());
@@ -205,6 +216,7 @@ void Runner::sample() {
       row.surface_angle_deg = fit.angle_deg;
     }
   }
+#endif
   row.kinetic_energy_j = sim_.kinetic_energy_j();
   row.contacts = static_cast<std::int64_t>(sim_.contact_count());
   series_->write(row);
@@ -290,6 +302,7 @@ void Runner::after_step() {
 }
 
 void Runner::frame() {
+#if BIODEM_HAVE_OPENCV
   if (!built_.drum) return;
   sync(false);
   const auto& s = sim_.spheres();
@@ -304,6 +317,7 @@ void Runner::frame() {
   std::snprintf(name, sizeof name, "%06zu.png", frame_index_++);
   const std::string path = opt_.out_dir + "/frames/" + name;
   if (!cv::imwrite(path, img)) throw Error(path + ": cannot write frame");
+#endif
 }
 
 void Runner::checkpoint() {
@@ -522,7 +536,9 @@ RunSummary Runner::run() {
     checkpoint_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.checkpoint_every_s, dt));
   // The free surface is measured on the cross-section rendered as the run's frames (one method
   // for runs and videos, docs/analysis.md section 4).
+#if BIODEM_HAVE_OPENCV
   surface_params_ = analysis::SurfaceParams::for_frames(static_cast<int>(cfg_.output.frame_size_px));
+#endif
 
   const auto phases = plan_phases(cfg_);
   total_steps_estimate_ = 1;

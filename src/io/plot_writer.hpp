@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#if BIODEM_HAVE_OPENCV
 #include <opencv2/core.hpp>
+#endif
 
 namespace biodem::io {
 
@@ -42,9 +44,19 @@ struct Plot {
 /// SVG document of the plot.
 std::string plot_to_svg(const Plot& plot);
 /// 8-bit BGR image of the plot.
+#if BIODEM_HAVE_OPENCV
 cv::Mat plot_to_image(const Plot& plot);
+#endif
 /// Writes STEM.svg and STEM.png (STEM without extension). Throws biodem::Error on failure.
 void write_plot(const Plot& plot, const std::filesystem::path& stem);
+/// False in the lean build without OpenCV (docs/gpu.md): analyze and compare then write no plots.
+constexpr bool plots_built() {
+#if BIODEM_HAVE_OPENCV
+  return true;
+#else
+  return false;
+#endif
+}
 
 /// Tick positions ("nice" numbers) covering [lo, hi] with about `target` ticks.
 std::vector<double> nice_ticks(double lo, double hi, int target = 6);
