@@ -387,10 +387,9 @@ inline void Engine::build_list() {
   sorted_.resize(n);
   launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
   thrust::sequence(exec(), sorted_.begin(), sorted_.end());
-  vec<std::uint32_t> keys = cell_key_;
-  thrust::stable_sort_by_key(exec(), keys.begin(), keys.end(), sorted_.begin());
+  thrust::stable_sort_by_key(exec(), cell_key_.begin(), cell_key_.end(), sorted_.begin());  // keys not needed after
   cell_start_.resize(ncell + 1);
-  thrust::lower_bound(exec(), keys.begin(), keys.end(), thrust::counting_iterator<std::uint32_t>(0),
+  thrust::lower_bound(exec(), cell_key_.begin(), cell_key_.end(), thrust::counting_iterator<std::uint32_t>(0),
                       thrust::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(ncell + 1)),
                       cell_start_.begin());
 
