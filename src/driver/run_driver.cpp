@@ -201,7 +201,9 @@ void Runner::sample() {
   io::SeriesRow row;
   row.time_s = sim_.time_s();
   row.revolution = revolution();
-  row.alpha_deg = m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m) : std::numeric_limits<double>::quiet_NaN();
+  const bool clockwise = cfg_.drum && cfg_.drum->rpm < 0.0;  // alpha rises with the bed for either direction
+  row.alpha_deg =
+      m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m, clockwise) : std::numeric_limits<double>::quiet_NaN();
 #if BIODEM_HAVE_OPENCV  // the free surface is measured on the rendered cross-section (none in the lean build)
   if (built_.drum && sim_.spheres().size() > 0) {
     const auto& s = sim_.spheres();
@@ -538,6 +540,7 @@ RunSummary Runner::run() {
   // for runs and videos, docs/analysis.md section 4).
 #if BIODEM_HAVE_OPENCV
   surface_params_ = analysis::SurfaceParams::for_frames(static_cast<int>(cfg_.output.frame_size_px));
+  surface_params_.image.mirror_x = cfg_.drum && cfg_.drum->rpm < 0.0;  // as `biodem video --rotation cw`
 #endif
 
   const auto phases = plan_phases(cfg_);
