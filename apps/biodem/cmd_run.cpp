@@ -34,7 +34,12 @@ Action register_run(CLI::App& app) {
     if (device == "gpu") opt.device = config::Device::Gpu;
     if (device == "gpu-emulated") opt.device = config::Device::GpuEmulated;
     opt.progress_tty = io::Progress::stderr_is_terminal();
-    driver::run_case(loaded, opt);
+    try {
+      driver::run_case(loaded, opt);
+    } catch (const driver::Interrupted& e) {
+      std::cerr << "biodem: " << e.what() << "\n";
+      return 128 + e.signal;  // 130 for SIGINT, 143 for SIGTERM (docs/outputs.md)
+    }
     return 0;
   };
 }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,7 @@ class Runner {
   void snapshot();
   double revolution() const;
   void report_progress(const std::string& label);
+  [[noreturn]] void stop_on_signal();
   /// One time step on the selected engine.
   void advance();
   /// GPU engine: brings the host Simulation up to date (with the contact history when `history`).
@@ -281,6 +283,21 @@ void Runner::snapshot() {
   ++snapshot_index_;
 }
 
+/// SIGINT / SIGTERM: the handler only records the signal; the run finishes its step, writes a
+/// checkpoint and stops (after_step).
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void on_stop_signal(int sig) { g_stop_signal = sig; }
+
+/// Test hook: BIODEM_TEST_SIGNAL_AT_STEP=N raises SIGTERM in the process once step N is done, so
+/// that the signal test stops the run at a chosen step.
+std::uint64_t signal_at_step() {
+  static const std::uint64_t n = [] {
+    const char* v = std::getenv("BIODEM_TEST_SIGNAL_AT_STEP");
+    return v ? std::strtoull(v, nullptr, 10) : 0ull;
+  }();
+  return n;
+}
+
 /// Test hook: BIODEM_TEST_ABORT_AT_STEP=N ends the process abruptly (no flush, no destructors,
 /// exit status 137 as after SIGKILL) once step N is done and its outputs are written, so that
 /// the kill-and-resume tests stop a run at a chosen step instead of racing a timer.
@@ -301,6 +318,24 @@ void Runner::after_step() {
   if (checkpoint_every_ && n % checkpoint_every_ == 0 && current_phase_ != "insert") checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
   if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
+  if (signal_at_step() && n == signal_at_step()) std::raise(SIGTERM);
+  if (g_stop_signal) stop_on_signal();
+}
+
+void Runner::stop_on_signal() {
+  const int sig = g_stop_signal;
+  const char* name = sig == SIGINT ? "SIGINT" : (sig == SIGTERM ? "SIGTERM" : "a signal");
+  std::ostringstream msg;
+  msg << "interrupted by " << name << " at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")";
+  if (current_phase_ == "insert") {
+    msg << " while inserting particles: no checkpoint yet, the run must start again";
+  } else {
+    checkpoint();
+    msg << ": checkpoint written to " << opt_.out_dir << "/checkpoint.bin; continue with --resume";
+  }
+  log_ << msg.str() << "\n";
+  log_.flush();
+  throw Interrupted(sig, msg.str());
 }
 
 void Runner::frame() {
@@ -641,6 +676,17 @@ RunSummary Runner::run() {
 
 RunSummary run_case(const io::LoadedCase& loaded, const RunOptions& options) {
   Runner r(loaded, options);
+  // SIGINT / SIGTERM stop the run at the end of the current step with a checkpoint.
+  struct Handlers {
+    void (*old_int)(int), (*old_term)(int);
+    Handlers() : old_int(std::signal(SIGINT, on_stop_signal)), old_term(std::signal(SIGTERM, on_stop_signal)) {
+      g_stop_signal = 0;
+    }
+    ~Handlers() {
+      std::signal(SIGINT, old_int);
+      std::signal(SIGTERM, old_term);
+    }
+  } handlers;
   return r.run();
 }
 

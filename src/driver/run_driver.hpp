@@ -2,6 +2,7 @@
 // series, snapshots, trace, run.log, progress. SPEC 5 and 11.
 #pragma once
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "io/case_parser.hpp"
@@ -21,6 +22,14 @@ struct RunSummary {
   double simulated_s = 0.0;
   double wall_s = 0.0;
   std::size_t bodies = 0, spheres = 0;
+};
+
+/// Thrown by run_case when SIGINT or SIGTERM stopped the run: the current step was finished and
+/// (unless the run was still inserting particles) a checkpoint written, so `--resume` continues
+/// bit for bit. `biodem run` prints `what()` and exits with 128 + signal (130 SIGINT, 143 SIGTERM).
+struct Interrupted : std::runtime_error {
+  Interrupted(int signal_number, const std::string& what) : std::runtime_error(what), signal(signal_number) {}
+  int signal;
 };
 
 RunSummary run_case(const io::LoadedCase& loaded, const RunOptions& options);
