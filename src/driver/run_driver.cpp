@@ -6,6 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -357,10 +360,32 @@ void Runner::frame() {
 #endif
 }
 
+/// Durably on disk (fsync): the appended outputs before a checkpoint records their sizes, and the
+/// folder after the checkpoint's rename (a crash must not leave a checkpoint that counts rows the
+/// disk never received, or lose the renamed checkpoint).
+void fsync_path(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+/// Truncates an appended output back to what the checkpoint counted. A file shorter than that
+/// lost rows the checkpoint relies on (extending it would pad with NUL bytes): an error.
+void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
+  const auto size = fs::file_size(path);
+  if (size < bytes)
+    throw Error("--resume: " + path + " has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(bytes) +
+                " the checkpoint recorded (rows were lost); start the run again");
+  fs::resize_file(path, bytes);
+}
+
 void Runner::checkpoint() {
   sync(true);
   series_->flush();
   if (trace_) trace_->flush();
+  fsync_path(opt_.out_dir + "/series.csv");
+  if (trace_) fsync_path(opt_.out_dir + "/trace.csv");
   io::RunProgress rp;
   rp.case_hash = case_hash_;
   rp.phase_index = phase_index_;
@@ -374,6 +399,7 @@ void Runner::checkpoint() {
   rp.pvd_bodies = pvd_bodies_->entries();
   // frame index is implied by the step count
   io::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
+  fsync_path(opt_.out_dir);
 }
 
 void Runner::resume() {
@@ -390,8 +416,8 @@ void Runner::resume() {
   rotation_time_s_ = resumed_.rotation_time_s;
   snapshot_index_ = resumed_.snapshot_index;
   frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
-  fs::resize_file(opt_.out_dir + "/series.csv", resumed_.series_bytes);
-  if (cfg_.output.trace) fs::resize_file(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
+  truncate_to_checkpoint(opt_.out_dir + "/series.csv", resumed_.series_bytes);
+  if (cfg_.output.trace) truncate_to_checkpoint(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
   resumed_run_ = true;
   // A checkpoint is taken after the step's sample and snapshot: do not repeat them.
   last_sample_step_ = sim_.step_count();

@@ -59,3 +59,16 @@ TEST(Signals, RealSigintStopsWithACheckpoint) {
   auto rr = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume");
   EXPECT_EQ(rr.status, 0) << rr.output;
 }
+
+// A series.csv shorter than the checkpoint recorded (rows lost, e.g. a crash of the machine
+// before they reached the disk) is an error on --resume, never NUL padding.
+TEST(Signals, ResumeRefusesAnOutputShorterThanTheCheckpointRecorded) {
+  const std::string d = fresh_dir("sig_short");
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=3000 " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  fs::resize_file(d + "/series.csv", fs::file_size(d + "/series.csv") / 2);
+  auto rr = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume");
+  EXPECT_EQ(rr.status, 2) << rr.output;
+  EXPECT_NE(rr.output.find("fewer than"), std::string::npos) << rr.output;
+  EXPECT_EQ(slurp(d + "/series.csv").find('\0'), std::string::npos);
+}
