@@ -161,11 +161,16 @@ void VerletList::build(const state::SphereStore& s) {
   std::vector<std::int32_t> new_image(m);
   std::vector<contact::ContactHistory> new_hist(m);
   std::vector<std::uint8_t> new_touch(m, 0);
-  const bool had_old = row_start.size() == n + 1;
+  // Spheres added since the last build (an insertion wave) are appended: the old spheres keep
+  // their indices, so the old rows (i < n_old, j < n_old) still name the same pairs and their
+  // history carries over. Any other change of count goes through renumber() first.
+  const std::size_t n_old = row_start.empty() ? 0 : row_start.size() - 1;
+  const bool had_old = n_old > 0 && n_old <= n;
 #pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
-    std::size_t o = had_old ? row_start[i] : 0;
-    const std::size_t o_end = had_old ? row_start[i + 1] : 0;
+    const bool has_row = had_old && i < n_old;
+    std::size_t o = has_row ? row_start[i] : 0;
+    const std::size_t o_end = has_row ? row_start[i + 1] : 0;
     for (std::size_t q = 0; q < rows[i].size(); ++q) {
       const std::size_t k = new_start[i] + q;
       new_j[k] = rows[i][q].first;
@@ -199,7 +204,19 @@ void VerletList::build(const state::SphereStore& s) {
 
 void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
   const std::size_t n = new_of_old.size();
-  if (row_start.size() != n + 1) return;
+  if (row_start.empty()) return;
+  // Spheres appended since the last build have no rows yet (indices >= n_old); a list that
+  // knows more spheres than the map cannot be mapped and is dropped.
+  const std::size_t n_old = row_start.size() - 1;
+  if (n_old > n) {
+    row_start.clear();
+    j.clear();
+    image.clear();
+    history.clear();
+    touching.clear();
+    built_at_.clear();  // forces a rebuild
+    return;
+  }
   std::size_t n_new = 0;
   for (std::uint32_t v : new_of_old) n_new += v != kRemoved;
   struct E {
@@ -208,7 +225,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
     contact::ContactHistory h;
   };
   std::vector<E> kept;
-  for (std::size_t i = 0; i < n; ++i)
+  for (std::size_t i = 0; i < n_old; ++i)
     for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) {
       if (!touching[k] || new_of_old[i] == kRemoved || new_of_old[j[k]] == kRemoved) continue;
       E e{new_of_old[i], new_of_old[j[k]], image[k], history[k]};
