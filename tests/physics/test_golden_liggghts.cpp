@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -100,4 +101,99 @@ TEST(GoldenLiggghts, ObliqueFrictionalSphereSphereImpact) {
   EXPECT_LT(e.x, 1e-12);
   EXPECT_LT(e.v, 1e-9);
   EXPECT_LT(e.w, 1e-6);
+}
+
+namespace {
+
+constexpr double kSjkrR = 1e-3, kSjkrRho = 1000.0, kSjkrMu = 0.3, kSjkrE = 0.5;
+const Material kSjkrMat{1e7, 0.3, kSjkrRho};
+
+/// Scene 2 (sjkr_pull_off.in): a sphere just inside a ceiling plane z = 0, moving away from it.
+/// Returns biodem's states at the golden frames.
+Golden sjkr_pull_off(double ced, const Golden& g) {
+  SimSetup su;
+  su.particle = kSjkrMat;
+  su.wall = kSjkrMat;
+  su.particle_particle = {kSjkrE, kSjkrMu, 0.0, ced};
+  su.particle_wall = su.particle_particle;
+  su.templates = {sphere_template(kSjkrR)};
+  su.dt_s = 1e-7;
+  sim::Simulation s = make_simulation(su);
+  s.add_wall(plane_wall({0, 0, 0}, {0, 0, -1}));
+  const Frame& f = g.begin()->second.at(1);
+  add_particle(s, 0, f.x, f.v, f.w);
+  Golden out;
+  for (const auto& [step, atoms] : g) {
+    while (static_cast<long>(s.step_count()) < step) s.step();
+    out[step][1] = {s.bodies().position_m[0], s.bodies().velocity_m_s[0], s.bodies().angular_velocity_rad_s[0]};
+  }
+  return out;
+}
+
+/// At frame k (central differences over the neighbouring frames, 100 steps apart): the friction
+/// force over mu, m |dv_x/dt| / mu, and the normal forces from the overlap and normal speed:
+/// Hertz + damping (no cohesion) and that minus the SJKR attraction (SPEC 2.1-2.4).
+struct FrictionCheck {
+  double ft_over_mu, hertz_damping, with_cohesion;
+};
+FrictionCheck friction_at(const Golden& g, long step, double ced) {
+  const Frame &a = g.at(step - 100).at(1), &b = g.at(step).at(1), &c = g.at(step + 100).at(1);
+  const double m = sphere_mass_kg(kSjkrR, kSjkrRho), dt = 200 * 1e-7;
+  const double y = effective_young_pa(kSjkrMat, kSjkrMat), r = kSjkrR;
+  const double delta = r + b.x.z;  // the wall is z = 0, the sphere below it
+  const double v_n = -b.v.z;       // along the wall normal (-z): positive = leaving
+  const double s_n = 2 * y * std::sqrt(r * delta);
+  const double gamma_n = -2 * std::sqrt(5.0 / 6.0) * beta_from_restitution(kSjkrE) * std::sqrt(s_n * m);
+  const double hertz = 4.0 / 3.0 * y * std::sqrt(r) * std::pow(delta, 1.5) - gamma_n * v_n;
+  const double coh = ced * std::numbers::pi * (r * r - (r - delta) * (r - delta));
+  return {m * std::abs(c.v.x - a.v.x) / dt / kSjkrMu, hertz, std::abs(hertz - coh)};
+}
+
+}  // namespace
+
+// Scene 2: a cohesive sphere pulled off a wall (SJKR): d = 2 mm, rho = 1000, E = 1e7 Pa,
+// nu = 0.3, e = 0.5, mu = 0.3; it starts 2 um into the ceiling, moving away at 0.01 m/s and
+// sliding along x at 0.01 m/s. With CED = 2e4 J/m3 it escapes; with 5e4 J/m3 cohesion keeps it
+// (20,000 steps, frames every 100).
+// Normal motion: biodem = LIGGGHTS to round-off (Hertz, damping and the SJKR wall area agree).
+// Tangential motion: it does NOT agree, and this is a finding (docs/contact_models.md, section
+// 10): LIGGGHTS 3.8.0 limits the sliding force at mu (Hertz + damping), without cohesion, while
+// biodem (SPEC 2.2) uses mu |Hertz + damping - cohesion|. The test shows both: over the sliding
+// frames (steps 600-1000), the reference's friction force equals mu (Hertz + damping) and
+// biodem's equals mu |F_n after cohesion|, each within 1 %, and the two differ by 27-65 %.
+TEST(GoldenLiggghts, CohesiveSpherePulledOffAWall) {
+  const ScopedThreads one(1);
+  for (const double ced : {2e4, 5e4}) {
+    SCOPED_TRACE(ced);
+    const Golden ref = read_golden(ced == 2e4 ? "sjkr_pull_off_ced2.0e4.csv" : "sjkr_pull_off_ced5.0e4.csv");
+    ASSERT_EQ(ref.size(), 201u);
+    const Golden mine = sjkr_pull_off(ced, ref);
+    double ez = 0, evz = 0;
+    for (const auto& [step, atoms] : ref) {
+      ez = std::max(ez, std::abs(mine.at(step).at(1).x.z - atoms.at(1).x.z));
+      evz = std::max(evz, std::abs(mine.at(step).at(1).v.z - atoms.at(1).v.z));
+    }
+    const char* tag = ced == 2e4 ? "escapes" : "sticks";
+    report((std::string("golden SJKR pull-off (") + tag + "): max normal position error [m]").c_str(), ez, 0.0);
+    report((std::string("golden SJKR pull-off (") + tag + "): max normal velocity error [m/s]").c_str(), evz, 0.0);
+    EXPECT_LT(ez, 1e-12);
+    EXPECT_LT(evz, 1e-9);
+  }
+  // The friction law, on the captured sphere (it stays in contact and slides all along).
+  const Golden ref = read_golden("sjkr_pull_off_ced5.0e4.csv");
+  EXPECT_GT(ref.rbegin()->second.at(1).x.z, -1.0e-3);  // still touching the ceiling at the end
+  const Golden mine = sjkr_pull_off(5e4, ref);
+  double worst_ref = 0, worst_mine = 0, min_gap = 1e300;
+  for (long step = 600; step <= 1000; step += 100) {  // the reference slides until step ~1050
+    const FrictionCheck r = friction_at(ref, step, 5e4), b = friction_at(mine, step, 5e4);
+    worst_ref = std::max(worst_ref, std::abs(r.ft_over_mu / r.hertz_damping - 1));
+    worst_mine = std::max(worst_mine, std::abs(b.ft_over_mu / b.with_cohesion - 1));
+    min_gap = std::min(min_gap, std::abs(r.hertz_damping / r.with_cohesion - 1));
+  }
+  report("LIGGGHTS friction force vs mu (Hertz + damping), largest rel. deviation", worst_ref, 0.0);
+  report("biodem friction force vs mu |Hertz + damping - cohesion|, largest rel. deviation", worst_mine, 0.0);
+  report("the two normal forces differ by at least (rel.)", min_gap, 0.0);
+  EXPECT_LT(worst_ref, 0.01);
+  EXPECT_LT(worst_mine, 0.01);
+  EXPECT_GT(min_gap, 0.25);
 }
