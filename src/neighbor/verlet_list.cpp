@@ -39,7 +39,9 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
   const Vec3 len = dom.length_m();
   // Cap the number of cells at ~4 per sphere (sparse scenes) by enlarging the cell if needed.
   double cell = cutoff;
-  for (int iter = 0; iter < 64; ++iter) {
+  // (Up to 4096 enlargements: enough for any finite extent, so a far-away sphere cannot make the
+  // grid, or a cell index, exceed what an int holds.)
+  for (int iter = 0; iter < 4096; ++iter) {
     double cells = 1.0;
     for (int k = 0; k < 3; ++k) {
       const double extent = dom.periodic[k] ? len[k] : hi[k] - lo[k];
@@ -58,7 +60,7 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
                     " is shorter than 3 neighbour cells (largest sphere diameter + skin)");
     } else {
       g.lo[k] = lo[k];
-      g.n[k] = std::max(1, static_cast<int>(std::floor((hi[k] - lo[k]) / cell)) + 1);
+      g.n[k] = static_cast<int>(std::clamp(std::floor((hi[k] - lo[k]) / cell) + 1.0, 1.0, 1e9));
     }
   }
   const std::size_t ncell = static_cast<std::size_t>(g.n[0]) * g.n[1] * g.n[2];
@@ -71,11 +73,16 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
       double x = s.position_m[i][k] - g.lo[k];
       if (dom.periodic[k]) {
         const double w = std::floor(x / len[k]);
+        // Image shifts are stored in 8 bits (pack_image): a sphere that has gone round a periodic
+        // axis more than 60 times cannot be represented; stop rather than give wrong pairs.
+        if (!(std::abs(w) <= 60.0))
+          throw Error("sphere " + std::to_string(i) + " is " + std::to_string(w) + " periodic lengths away along axis " +
+                      std::to_string(k) + " (at most 60 are supported)");
         g.wrap_of[i][k] = static_cast<int>(w);
         x -= w * len[k];
         c[k] = std::min(g.n[k] - 1, static_cast<int>(x / (len[k] / g.n[k])));
       } else {
-        c[k] = std::min(g.n[k] - 1, std::max(0, static_cast<int>(x / cell)));
+        c[k] = static_cast<int>(std::clamp(x / cell, 0.0, static_cast<double>(g.n[k] - 1)));
       }
     }
     g.cell_of[i] = c;

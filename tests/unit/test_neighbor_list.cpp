@@ -12,9 +12,11 @@
 #include <cstdint>
 #include <map>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include "core/error.hpp"
 #include "neighbor/verlet_list.hpp"
 #include "state/particle_store.hpp"
 
@@ -424,5 +426,34 @@ TEST(VerletList, RenumberAfterAppendKeepsHistory) {
         EXPECT_EQ(L.history[k].m_r, -h.m_r);
       }
     EXPECT_TRUE(found) << pair.first << "-" << pair.second;
+  }
+}
+
+// A sphere absurdly far away (a corrupt checkpoint, an exploded run; found by the checkpoint
+// fuzzer): the cell grid must neither overflow an int (undefined behaviour before the fix, a
+// cell count of 5e191) nor miss pairs; the list stays exact.
+TEST(VerletList, FarAwaySphereKeepsTheGridBoundedAndTheListExact) {
+  const Domain dom = make_domain({false, false, false});
+  state::SphereStore s = make_packing(31, 300, dom, false);
+  s.position_m[17] = {1e200, -3e150, 0.5};
+  VerletList L;
+  L.configure(dom, kSkin);
+  L.build(s);
+  check_list(L, s, dom);
+}
+
+// Image shifts are stored in 8 bits: a sphere more than 60 periodic lengths away is an error
+// naming it, not a wrong pair (before: the shift silently wrapped).
+TEST(VerletList, SphereTooManyPeriodsAwayIsAnError) {
+  const Domain dom = make_domain({true, false, false});
+  state::SphereStore s = make_packing(32, 100, dom, false);
+  s.position_m[5].x += 200 * kL;
+  VerletList L;
+  L.configure(dom, kSkin);
+  try {
+    L.build(s);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sphere 5 "), std::string::npos) << e.what();
   }
 }
