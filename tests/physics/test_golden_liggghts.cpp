@@ -197,3 +197,62 @@ TEST(GoldenLiggghts, CohesiveSpherePulledOffAWall) {
   EXPECT_LT(worst_mine, 0.01);
   EXPECT_GT(min_gap, 0.25);
 }
+
+// Scene 3: a three-sphere needle falls onto a plane and tumbles (needle_fall.in; LIGGGHTS
+// `fix multisphere`): spheres d = 2 mm, centres 1.6 mm apart, rho = 1000, E = 1e7 Pa, nu = 0.3,
+// e = 0.5, mu = 0.3, EPSD2 mu_r = 0.1 (on a resting plane the wall/lab rolling conventions
+// coincide), released at rest tilted 30 degrees, centre 5 mm up; dt = 1e-6 s, 60,000 steps,
+// frames every 500. The reference inserts the needle at step 0 (its first frame is empty), so
+// biodem starts from the frame at step 500 (the needle in free fall, no contact yet). The
+// reference computes the clump's mass and inertia by Monte-Carlo sampling (10^6 points) and
+// integrates the clump with its own scheme (section 10), so agreement is to a tolerance, not
+// to round-off.
+TEST(GoldenLiggghts, NeedleFallsOntoAPlaneAndTumbles) {
+  const ScopedThreads one(1);
+  const Golden g = read_golden("needle_fall.csv");
+  ASSERT_EQ(g.size(), 120u);  // steps 500 ... 60,000
+  const auto& f0 = g.begin()->second;
+  ASSERT_EQ(g.begin()->first, 500);
+  SimSetup su;
+  su.particle = {1e7, 0.3, 1000.0};
+  su.wall = su.particle;
+  su.particle_particle = {0.5, 0.3, 0.1, 0.0};
+  su.particle_wall = su.particle_particle;
+  su.templates = {clump_template({{-1.6e-3, 0, 0}, {0, 0, 0}, {1.6e-3, 0, 0}}, {1e-3, 1e-3, 1e-3})};
+  su.dt_s = 1e-6;
+  su.gravity_m_s2 = {0, 0, -9.81};
+  sim::Simulation s = make_simulation(su);
+  s.add_wall(plane_wall({0, 0, 0}, {0, 0, 1}));
+  const double c15 = std::cos(std::numbers::pi / 12), s15 = std::sin(std::numbers::pi / 12);
+  add_particle(s, 0, f0.at(2).x, f0.at(2).v, f0.at(2).w, Quat{c15, 0, s15, 0});
+  // The template's frame is the one of the script: the spheres land where the reference has them.
+  for (int k = 0; k < 3; ++k) ASSERT_LT(norm(s.spheres().position_m[k] - f0.at(k + 1).x), 1e-9) << k;
+  double ex = 0, ev = 0, ew = 0, t_worst = 0, e_fall = 0, w_after = 0, w_after_ref = 0;
+  for (const auto& [step, atoms] : g) {
+    while (static_cast<long>(s.step_count()) + 500 < step) s.step();
+    for (int k = 0; k < 3; ++k) {
+      const double e = norm(s.spheres().position_m[k] - atoms.at(k + 1).x);
+      if (e > ex) ex = e, t_worst = step * 1e-6;
+      if (step <= 25500) e_fall = std::max(e_fall, e);  // free fall: the first contact is at ~25,700
+      ev = std::max(ev, norm(s.spheres().velocity_m_s[k] - atoms.at(k + 1).v));
+    }
+    ew = std::max(ew, norm(s.bodies().angular_velocity_rad_s[0] - atoms.at(2).w));
+    if (step == 30000) {  // between the first and the second impact: free flight, spinning
+      w_after = s.bodies().angular_velocity_rad_s[0].y;
+      w_after_ref = atoms.at(2).w.y;
+    }
+  }
+  const Frame& last = g.rbegin()->second.at(2);
+  report("golden needle: position error in free fall [m]", e_fall, 0.0);
+  report("golden needle: max sphere position error over 60,000 steps [m]", ex, 0.0);
+  report("golden needle: time of the largest position error [s]", t_worst, 0.0);
+  report("golden needle: spin after the first impact [rad/s]", w_after, w_after_ref);
+  report("golden needle: max sphere velocity error (within impacts) [m/s]", ev, 0.0);
+  report("golden needle: max spin error (within impacts) [rad/s]", ew, 0.0);
+  report("golden needle: final height of the middle sphere [m]", s.spheres().position_m[1].z, last.x.z);
+  EXPECT_LT(e_fall, 1e-12);                                  // measured 1e-18
+  EXPECT_LT(ex, 2e-5);                                       // measured 8.4e-6 (needle 5.2 mm long)
+  EXPECT_NEAR(w_after / w_after_ref, 1.0, 0.01);             // measured 0.14 % (-82.21 vs -82.32 rad/s)
+  EXPECT_NEAR(s.spheres().position_m[1].z, last.x.z, 1e-9);  // both lie flat on the plane at the end
+  EXPECT_LT(last.x.z, 1.01e-3);
+}
