@@ -1100,6 +1100,25 @@ class CaseParser {
   }
 };
 
+/// Messages quote the case's own text (TOML errors echo the bytes read, names may hold escaped
+/// newlines): control characters are written as escapes so that every error stays one line
+/// (issue 10, item 8: found by fuzzing).
+std::string one_line(std::string_view m) {
+  std::string out;
+  for (const char c : m) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == '\n') out += "\\n";
+    else if (c == '\r') out += "\\r";
+    else if (c == '\t') out += "\\t";
+    else if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", u);
+      out += buf;
+    } else out += c;
+  }
+  return out;
+}
+
 }  // namespace
 
 LoadedCase parse_case(std::string_view toml_text, const std::string& source_name) {
@@ -1108,10 +1127,14 @@ LoadedCase parse_case(std::string_view toml_text, const std::string& source_name
     root = toml::parse(toml_text, source_name);
   } catch (const toml::parse_error& e) {
     const auto& b = e.source().begin;
-    throw Error(source_name + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) +
-                ": TOML syntax error: " + std::string(e.description()));
+    throw Error(one_line(source_name + ":" + std::to_string(b.line) + ":" + std::to_string(b.column) +
+                         ": TOML syntax error: " + std::string(e.description())));
   }
-  return CaseParser(root, source_name).parse();
+  try {
+    return CaseParser(root, source_name).parse();
+  } catch (const Error& e) {
+    throw Error(one_line(e.what()));
+  }
 }
 
 LoadedCase load_case(const std::string& path) {

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -72,7 +73,7 @@ class In {
 
  private:
   void need(std::size_t k) const {
-    if (off_ + k > n_) throw Error(name_ + ": truncated checkpoint");
+    if (k > n_ - off_) throw Error(name_ + ": truncated checkpoint");  // not off_ + k: it can wrap
   }
   const char* p_;
   std::size_t n_, off_ = 0;
@@ -119,6 +120,77 @@ void list_fields(Stream& s, List& l) {
   s.vec(l.torque_j);
   s.vec(l.rev_start);
   s.vec(l.rev_entry);
+}
+
+/// A checkpoint with a valid checksum may still not fit this case (edited, or written by a
+/// different build): check that the arrays fit together before anything indexes with them.
+/// Issue 10, item 8 (checkpoint fuzzing); each failure is one line naming the file and the part.
+void check_consistency(sim::Simulation& sim, const std::string& path) {
+  auto bad = [&](const std::string& what) { throw Error(path + ": corrupt checkpoint (" + what + ")"); };
+  const auto& b = sim.bodies();
+  const std::size_t nb = b.mass_kg.size();
+  for (std::size_t n : {b.position_m.size(), b.velocity_m_s.size(), b.angular_velocity_rad_s.size(),
+                        b.angular_momentum_kg_m2_s.size(), b.orientation.size(), b.inertia_kg_m2.size(),
+                        b.shape.size(), b.id.size(), b.first_sphere.size(), b.sphere_count.size(), b.force_n.size(),
+                        b.torque_n_m.size()})
+    if (n != nb) bad("body arrays of different lengths");
+  const auto& s = sim.spheres_mut();
+  const std::size_t ns = s.radius_m.size();
+  for (std::size_t n : {s.position_m.size(), s.velocity_m_s.size(), s.angular_velocity_rad_s.size(),
+                        s.offset_body_m.size(), s.body.size(), s.material.size(), s.body_mass_kg.size(),
+                        s.force_n.size(), s.torque_n_m.size()})
+    if (n != ns) bad("sphere arrays of different lengths");
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < nb; ++k) {
+    if (b.shape[k] >= sim.templates().size()) bad("body shape index");
+    if (b.first_sphere[k] != next || b.sphere_count[k] != sim.templates()[b.shape[k]].sphere_count())
+      bad("body sphere ranges");
+    next += b.sphere_count[k];
+    if (!(b.mass_kg[k] > 0.0) || !(b.inertia_kg_m2[k].x > 0.0) || !(b.inertia_kg_m2[k].y > 0.0) ||
+        !(b.inertia_kg_m2[k].z > 0.0))
+      bad("body mass or inertia");
+    const Quat& q = b.orientation[k];
+    for (const Vec3& v : {b.position_m[k], b.velocity_m_s[k], b.angular_velocity_rad_s[k], b.angular_momentum_kg_m2_s[k],
+                          Vec3{q.w, q.x, q.y}, Vec3{q.z, b.mass_kg[k], 0.0}})
+      if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) bad("non-finite body state");
+    if (!(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z > 0.5)) bad("body orientation");
+  }
+  if (next != ns) bad("sphere count");
+  for (std::size_t i = 0; i < ns; ++i) {
+    if (s.body[i] >= nb || i < b.first_sphere[s.body[i]] || i >= b.first_sphere[s.body[i]] + b.sphere_count[s.body[i]])
+      bad("sphere body index");
+    if (s.material[i] >= sim.pair_table().materials()) bad("sphere material index");
+    if (!(s.radius_m[i] > 0.0) || !(s.body_mass_kg[i] > 0.0)) bad("sphere radius or mass");
+  }
+  const auto& wc = sim.wall_contacts();
+  if (wc.history.size() != wc.wall.size() || wc.touching.size() != wc.wall.size()) bad("wall contact table");
+  for (std::size_t i = 0; i < ns; ++i)
+    if (wc.start[i] > wc.start[i + 1]) bad("wall contact table");
+  for (std::uint32_t w : wc.wall)
+    if (w >= sim.walls().size()) bad("wall contact table");
+  const auto& l = sim.neighbor_list();
+  const std::size_t m = l.j.size();
+  if (!l.row_start.empty()) {
+    if (l.row_start.size() != ns + 1 || l.row_start[0] != 0 || l.row_start[ns] != m) bad("neighbour list rows");
+    for (std::size_t i = 0; i < ns; ++i)  // monotone first: then every row lies within [0, m)
+      if (l.row_start[i] > l.row_start[i + 1]) bad("neighbour list rows");
+    for (std::size_t i = 0; i < ns; ++i)
+      for (std::uint32_t k = l.row_start[i]; k < l.row_start[i + 1]; ++k)
+        if (l.j[k] <= i || l.j[k] >= ns) bad("neighbour list entries");
+  } else if (m != 0) {
+    bad("neighbour list rows");
+  }
+  if (l.image.size() != m || l.history.size() != m || l.touching.size() != m || l.force_i.size() != m ||
+      l.torque_j.size() != m || l.rev_entry.size() != m)
+    bad("neighbour list entry arrays");
+  if (!l.rev_start.empty() || m != 0) {
+    if (l.rev_start.size() != ns + 1 || l.rev_start[0] != 0 || l.rev_start[ns] != m) bad("neighbour list reverse index");
+    for (std::size_t i = 0; i < ns; ++i)
+      if (l.rev_start[i] > l.rev_start[i + 1]) bad("neighbour list reverse index");
+    for (std::uint32_t k : l.rev_entry)
+      if (k >= m) bad("neighbour list reverse index");
+  }
+  if (!l.built_at().empty() && l.built_at().size() != ns) bad("neighbour list positions");
 }
 
 }  // namespace
@@ -196,7 +268,11 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
 RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(path + ": no checkpoint to resume from");
-  std::vector<char> all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::vector<char> all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return load_checkpoint_bytes(all, path, sim);
+}
+
+RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::string& path, sim::Simulation& sim) {
   const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
   if (all.size() < head + sizeof(std::uint64_t) || std::memcmp(all.data(), kMagic, sizeof kMagic) != 0)
     throw Error(path + ": not a biodem checkpoint");
@@ -251,7 +327,10 @@ RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
   const double removed_mass = in.pod<double>();
   sim.set_removed(removed, removed_mass);
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
+  if (!std::isfinite(time) || !std::isfinite(rp.rotation_time_s) || !(skin >= 0.0 && skin < 1e300))
+    throw Error(path + ": corrupt checkpoint (time or skin)");
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
+  check_consistency(sim, path);
   return rp;
 }
 

@@ -32,6 +32,8 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim, const 
 /// Restores into a Simulation built from the same case (same walls, templates, materials).
 /// Throws biodem::Error naming the file when it is missing, truncated, corrupt or of another version.
 RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim);
+/// Same for the bytes of a checkpoint file already in memory (`path` is used in messages).
+RunProgress load_checkpoint_bytes(const std::vector<char>& bytes, const std::string& path, sim::Simulation& sim);
 
 std::uint64_t fnv1a(const void* data, std::size_t n, std::uint64_t h = 1469598103934665603ull);
 

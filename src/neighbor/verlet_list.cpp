@@ -39,7 +39,9 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
   const Vec3 len = dom.length_m();
   // Cap the number of cells at ~4 per sphere (sparse scenes) by enlarging the cell if needed.
   double cell = cutoff;
-  for (int iter = 0; iter < 64; ++iter) {
+  // (Up to 4096 enlargements: enough for any finite extent, so a far-away sphere cannot make the
+  // grid, or a cell index, exceed what an int holds.)
+  for (int iter = 0; iter < 4096; ++iter) {
     double cells = 1.0;
     for (int k = 0; k < 3; ++k) {
       const double extent = dom.periodic[k] ? len[k] : hi[k] - lo[k];
@@ -58,7 +60,7 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
                     " is shorter than 3 neighbour cells (largest sphere diameter + skin)");
     } else {
       g.lo[k] = lo[k];
-      g.n[k] = std::max(1, static_cast<int>(std::floor((hi[k] - lo[k]) / cell)) + 1);
+      g.n[k] = static_cast<int>(std::clamp(std::floor((hi[k] - lo[k]) / cell) + 1.0, 1.0, 1e9));
     }
   }
   const std::size_t ncell = static_cast<std::size_t>(g.n[0]) * g.n[1] * g.n[2];
@@ -71,11 +73,16 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
       double x = s.position_m[i][k] - g.lo[k];
       if (dom.periodic[k]) {
         const double w = std::floor(x / len[k]);
+        // Image shifts are stored in 8 bits (pack_image): a sphere that has gone round a periodic
+        // axis more than 60 times cannot be represented; stop rather than give wrong pairs.
+        if (!(std::abs(w) <= 60.0))
+          throw Error("sphere " + std::to_string(i) + " is " + std::to_string(w) + " periodic lengths away along axis " +
+                      std::to_string(k) + " (at most 60 are supported)");
         g.wrap_of[i][k] = static_cast<int>(w);
         x -= w * len[k];
         c[k] = std::min(g.n[k] - 1, static_cast<int>(x / (len[k] / g.n[k])));
       } else {
-        c[k] = std::min(g.n[k] - 1, std::max(0, static_cast<int>(x / cell)));
+        c[k] = static_cast<int>(std::clamp(x / cell, 0.0, static_cast<double>(g.n[k] - 1)));
       }
     }
     g.cell_of[i] = c;
@@ -161,11 +168,16 @@ void VerletList::build(const state::SphereStore& s) {
   std::vector<std::int32_t> new_image(m);
   std::vector<contact::ContactHistory> new_hist(m);
   std::vector<std::uint8_t> new_touch(m, 0);
-  const bool had_old = row_start.size() == n + 1;
+  // Spheres added since the last build (an insertion wave) are appended: the old spheres keep
+  // their indices, so the old rows (i < n_old, j < n_old) still name the same pairs and their
+  // history carries over. Any other change of count goes through renumber() first.
+  const std::size_t n_old = row_start.empty() ? 0 : row_start.size() - 1;
+  const bool had_old = n_old > 0 && n_old <= n;
 #pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
   for (std::size_t i = 0; i < n; ++i) {
-    std::size_t o = had_old ? row_start[i] : 0;
-    const std::size_t o_end = had_old ? row_start[i + 1] : 0;
+    const bool has_row = had_old && i < n_old;
+    std::size_t o = has_row ? row_start[i] : 0;
+    const std::size_t o_end = has_row ? row_start[i + 1] : 0;
     for (std::size_t q = 0; q < rows[i].size(); ++q) {
       const std::size_t k = new_start[i] + q;
       new_j[k] = rows[i][q].first;
@@ -199,7 +211,19 @@ void VerletList::build(const state::SphereStore& s) {
 
 void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
   const std::size_t n = new_of_old.size();
-  if (row_start.size() != n + 1) return;
+  if (row_start.empty()) return;
+  // Spheres appended since the last build have no rows yet (indices >= n_old); a list that
+  // knows more spheres than the map cannot be mapped and is dropped.
+  const std::size_t n_old = row_start.size() - 1;
+  if (n_old > n) {
+    row_start.clear();
+    j.clear();
+    image.clear();
+    history.clear();
+    touching.clear();
+    built_at_.clear();  // forces a rebuild
+    return;
+  }
   std::size_t n_new = 0;
   for (std::uint32_t v : new_of_old) n_new += v != kRemoved;
   struct E {
@@ -208,7 +232,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
     contact::ContactHistory h;
   };
   std::vector<E> kept;
-  for (std::size_t i = 0; i < n; ++i)
+  for (std::size_t i = 0; i < n_old; ++i)
     for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) {
       if (!touching[k] || new_of_old[i] == kRemoved || new_of_old[j[k]] == kRemoved) continue;
       E e{new_of_old[i], new_of_old[j[k]], image[k], history[k]};

@@ -33,7 +33,9 @@ class VerletList {
     domain_ = domain;
     skin_m_ = skin_m;
   }
-  /// Rebuilds the list from current sphere positions, carrying history over.
+  /// Rebuilds the list from current sphere positions, carrying history over. Between builds
+  /// spheres may only be appended (new indices >= the old count, e.g. an insertion wave: the
+  /// history of the existing pairs is kept); any other change of indices goes through renumber().
   void build(const state::SphereStore& spheres);
   /// Re-indexes the existing list after spheres were renumbered (new index = new_of_old[old]),
   /// keeping the history of touching pairs; the next build() merges it as usual. A pair whose

@@ -5,6 +5,8 @@
 #include <numbers>
 #include <unordered_map>
 
+#include "core/random.hpp"
+
 namespace biodem::scenario {
 namespace {
 
@@ -48,7 +50,7 @@ class SphereHash {
 }  // namespace
 
 Quat random_orientation(std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr auto u = uniform01;  // core/random.hpp: the same numbers with every library
   const double u1 = u(rng), u2 = u(rng), u3 = u(rng);
   const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1), tp = 2.0 * std::numbers::pi;
   return normalized(Quat{b * std::cos(tp * u3), a * std::sin(tp * u2), a * std::cos(tp * u2), b * std::sin(tp * u3)});
@@ -75,7 +77,7 @@ std::vector<InsertionRequest> plan_population(std::uint64_t count, const std::ve
   std::vector<InsertionRequest> out;
   out.reserve(count);
   for (std::size_t k = 0; k < pops.size(); ++k) out.insert(out.end(), n[k], pops[k]);
-  std::shuffle(out.begin(), out.end(), rng);
+  biodem::shuffle(out.begin(), out.end(), rng);  // core/random.hpp
   return out;
 }
 
@@ -100,7 +102,7 @@ std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& reg, const s
     if (reg.periodic_z) c.z = reg.z_min_m + (c.z - reg.z_min_m) - width * std::floor((c.z - reg.z_min_m) / width);
     add_with_images(c, sim.spheres().radius_m[i]);
   }
-  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr auto u = uniform01;  // core/random.hpp: the same numbers with every library
   std::vector<Vec3> placed;
   while (next < todo.size()) {
     const auto& req = todo[next];
@@ -166,7 +168,7 @@ std::size_t insert_wave(sim::Simulation& sim, const Region& reg, const std::vect
   const Vec3 a = reg.axis;
   const Vec3 e1 = normalized(std::abs(a.x) < 0.9 ? cross(a, Vec3{1, 0, 0}) : cross(a, Vec3{0, 1, 0}));
   const Vec3 e2 = cross(a, e1);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
+  constexpr auto u = uniform01;  // core/random.hpp: the same numbers with every library
   std::vector<Vec3> placed;
   while (next < todo.size()) {
     const auto& req = todo[next];

@@ -12,9 +12,11 @@
 #include <cstdint>
 #include <map>
 #include <random>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include "core/error.hpp"
 #include "neighbor/verlet_list.hpp"
 #include "state/particle_store.hpp"
 
@@ -304,5 +306,154 @@ TEST(VerletList, RenumberKeepsHistoryUnderNewIndices) {
     }
     EXPECT_GT(flipped, 10u);
     EXPECT_LT(flipped, old_hist.size());
+  }
+}
+
+// Issue 10 item 1: a second insertion wave appends spheres (indices >= the old count). Before
+// the fix, build() dropped the history and touching flag of every pair when the sphere count
+// changed; now the pairs of the old spheres keep them, and the pairs that involve a new sphere
+// start fresh (even where the new sphere overlaps an old one). Exact comparisons.
+TEST(VerletList, HistoryOfTouchingPairsSurvivesAppendedSpheres) {
+  for (const Variant& v : kVariants) {
+    SCOPED_TRACE(v.name);
+    const Domain dom = make_domain(v.periodic);
+    state::SphereStore s = make_packing(13, v.clumps ? 250 : 600, dom, v.clumps);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    std::map<std::pair<std::uint32_t, std::uint32_t>, contact::ContactHistory> expected;
+    for (std::uint32_t i = 0; i < s.size(); ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const std::uint32_t j = L.j[k];
+        const Vec3 d = s.position_m[i] - s.position_m[j] - L.shift(k);
+        L.touching[k] = norm(d) < s.radius_m[i] + s.radius_m[j] ? 1 : 0;
+        L.history[k] = {{1e-9 * i, -1e-9 * j, 3.0}, {double(j), double(i), 4.0}};
+        if (L.touching[k]) expected[{i, j}] = L.history[k];
+      }
+    ASSERT_GT(expected.size(), 100u);
+    // A second wave: another packing appended with new body ids, overlapping the first.
+    const std::uint32_t n_old = static_cast<std::uint32_t>(s.size());
+    const std::uint32_t b_old = s.body.back() + 1;
+    const state::SphereStore w = make_packing(14, 100, dom, v.clumps);
+    for (std::size_t q = 0; q < w.size(); ++q) {
+      s.position_m.push_back(w.position_m[q]);
+      s.velocity_m_s.push_back({});
+      s.angular_velocity_rad_s.push_back({});
+      s.radius_m.push_back(w.radius_m[q]);
+      s.offset_body_m.push_back(w.offset_body_m[q]);
+      s.body.push_back(b_old + w.body[q]);
+      s.material.push_back(0);
+      s.body_mass_kg.push_back(1.0);
+      s.force_n.push_back({});
+      s.torque_n_m.push_back({});
+    }
+    ASSERT_TRUE(L.needs_rebuild(s));
+    L.build(s);
+    check_list(L, s, dom);
+    std::size_t carried = 0, new_pairs = 0;
+    for (std::uint32_t i = 0; i < s.size(); ++i)
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const auto it = expected.find({i, L.j[k]});
+        if (it == expected.end()) {
+          if (L.j[k] >= n_old) ++new_pairs;
+          EXPECT_EQ(L.touching[k], 0);
+          EXPECT_EQ(L.history[k].xi, Vec3{});
+        } else {
+          ++carried;
+          EXPECT_EQ(L.touching[k], 1);
+          EXPECT_EQ(L.history[k].xi, it->second.xi);
+          EXPECT_EQ(L.history[k].m_r, it->second.m_r);
+        }
+      }
+    EXPECT_EQ(carried, expected.size());
+    EXPECT_GT(new_pairs, 10u);  // the new wave does reach into the old spheres
+  }
+}
+
+// Spheres appended and then renumbered before any build (e.g. bodies removed right after a
+// wave): the map covers the new spheres too; the old pairs' history follows its spheres.
+TEST(VerletList, RenumberAfterAppendKeepsHistory) {
+  const Domain dom = make_domain({false, false, false});
+  state::SphereStore s = make_packing(21, 400, dom, false);
+  VerletList L;
+  L.configure(dom, kSkin);
+  L.build(s);
+  std::map<std::pair<std::uint32_t, std::uint32_t>, contact::ContactHistory> old_hist;
+  for (std::uint32_t i = 0; i < s.size(); ++i)
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      const Vec3 d = s.position_m[i] - s.position_m[j] - L.shift(k);
+      L.touching[k] = norm(d) < s.radius_m[i] + s.radius_m[j] ? 1 : 0;
+      L.history[k] = {{1e-9 * i, 2e-9 * j, 0.5}, {double(i), -double(j), 2.0}};
+      if (L.touching[k]) old_hist[{i, j}] = L.history[k];
+    }
+  const std::uint32_t n_old = static_cast<std::uint32_t>(s.size());
+  for (int q = 0; q < 50; ++q) {  // far-away appended spheres
+    s.position_m.push_back({1.0 + 0.01 * q, 0, 0});
+    s.velocity_m_s.push_back({});
+    s.angular_velocity_rad_s.push_back({});
+    s.radius_m.push_back(0.5e-3);
+    s.offset_body_m.push_back({});
+    s.body.push_back(1000 + q);
+    s.material.push_back(0);
+    s.body_mass_kg.push_back(1.0);
+    s.force_n.push_back({});
+    s.torque_n_m.push_back({});
+  }
+  // Reverse order: every old pair flips.
+  const std::uint32_t n = static_cast<std::uint32_t>(s.size());
+  std::vector<std::uint32_t> new_of_old(n);
+  for (std::uint32_t i = 0; i < n; ++i) new_of_old[i] = n - 1 - i;
+  state::SphereStore p = s;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    p.position_m[new_of_old[i]] = s.position_m[i];
+    p.radius_m[new_of_old[i]] = s.radius_m[i];
+    p.body[new_of_old[i]] = s.body[i];
+  }
+  L.renumber(new_of_old);
+  L.build(p);
+  check_list(L, p, dom);
+  ASSERT_GT(old_hist.size(), 50u);
+  for (const auto& [pair, h] : old_hist) {
+    ASSERT_LT(pair.second, n_old);
+    const std::uint32_t a = new_of_old[pair.second], b = new_of_old[pair.first];  // flipped
+    bool found = false;
+    for (std::uint32_t k = L.row_start[a]; k < L.row_start[a + 1]; ++k)
+      if (L.j[k] == b) {
+        found = true;
+        EXPECT_EQ(L.touching[k], 1);
+        EXPECT_EQ(L.history[k].xi, -h.xi);
+        EXPECT_EQ(L.history[k].m_r, -h.m_r);
+      }
+    EXPECT_TRUE(found) << pair.first << "-" << pair.second;
+  }
+}
+
+// A sphere absurdly far away (a corrupt checkpoint, an exploded run; found by the checkpoint
+// fuzzer): the cell grid must neither overflow an int (undefined behaviour before the fix, a
+// cell count of 5e191) nor miss pairs; the list stays exact.
+TEST(VerletList, FarAwaySphereKeepsTheGridBoundedAndTheListExact) {
+  const Domain dom = make_domain({false, false, false});
+  state::SphereStore s = make_packing(31, 300, dom, false);
+  s.position_m[17] = {1e200, -3e150, 0.5};
+  VerletList L;
+  L.configure(dom, kSkin);
+  L.build(s);
+  check_list(L, s, dom);
+}
+
+// Image shifts are stored in 8 bits: a sphere more than 60 periodic lengths away is an error
+// naming it, not a wrong pair (before: the shift silently wrapped).
+TEST(VerletList, SphereTooManyPeriodsAwayIsAnError) {
+  const Domain dom = make_domain({true, false, false});
+  state::SphereStore s = make_packing(32, 100, dom, false);
+  s.position_m[5].x += 200 * kL;
+  VerletList L;
+  L.configure(dom, kSkin);
+  try {
+    L.build(s);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sphere 5 "), std::string::npos) << e.what();
   }
 }
