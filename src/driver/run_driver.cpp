@@ -424,10 +424,12 @@ void Runner::write_responses() {
     rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
   } else if (b.kind == config::BulkTest::Kind::BulkDensity) {
     const double R = 0.5 * b.container_diameter_m, H = b.container_height_m;
-    double m = 0.0, v = 0.0, y_max = -1e300;
+    double m = 0.0, v = 0.0, y_max = -1e300, v_core = 0.0;
+    const double rc = R - d;  // core: one particle size away from the wall, the bottom and the rim
     for (std::size_t i = 0; i < bd.size(); ++i) {
       const Vec3 x = bd.position_m[i];
       y_max = std::max(y_max, x.y);
+      if (x.y > d && x.y < H - d && x.x * x.x + x.z * x.z < rc * rc) v_core += sim_.templates()[bd.shape[i]].volume_m3;
       if (x.y > H || x.x * x.x + x.z * x.z > R * R || x.y < 0.0) continue;  // struck off, or outside
       m += bd.mass_kg[i];
       v += sim_.templates()[bd.shape[i]].volume_m3;
@@ -440,6 +442,8 @@ void Runner::write_responses() {
     rows.push_back({"bulk_density_kg_m3", m / volume, "kg/m3"});
     rows.push_back({"solid_fraction", v / volume, "-"});
     rows.push_back({"mass_in_container_kg", m, "kg"});
+    if (rc > 0.0 && H > 2.0 * d)
+      rows.push_back({"core_solid_fraction", v_core / (std::numbers::pi * rc * rc * (H - 2.0 * d)), "-"});
   } else {
     double m_in = 0.0, m_all = sim_.removed_mass_kg();
     for (std::size_t i = 0; i < bd.size(); ++i) {
