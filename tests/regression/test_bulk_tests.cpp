@@ -87,8 +87,8 @@ TEST(BulkTests, FrictionlessSpheresLeaveNoHeap) {
 
 // Poured monodisperse spheres (mu_s = 0.5, mu_r = 0.2) in a container 10 diameters wide: the solid
 // fraction of the core (one diameter away from wall, bottom and rim) lies in the random-loose
-// range 0.55-0.60 (Onoda & Liniger 1990: 0.555 at vanishing gravity; Scott & Kilgour 1969:
-// ~0.60 for poured spheres); measured 0.5625. The whole container is looser (wall layers:
+// range 0.55-0.60 (Onoda & Liniger 1990: 0.555 at vanishing gravity; Scott 1960: ~0.60 for
+// spheres poured loosely); measured 0.5625. The whole container is looser (wall layers:
 // measured 0.524) and bulk density = solid fraction x 2500 kg/m3 exactly.
 TEST(BulkTests, PouredSpheresAreRandomLoose) {
   auto r = run_bulk("bulk_density_tiny.toml", "bulk_density", {});
