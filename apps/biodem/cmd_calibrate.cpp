@@ -1,20 +1,312 @@
-// `biodem calibrate`: NSGA-II bulk-test calibration (SPEC 7) is later work; until it exists the
-// command says so and fails, never pretends.
+// `biodem calibrate CALIB.toml --out DIR [--jobs N] [--resume]` (SPEC 7, 11; issue 9): an
+// NSGA-II campaign over case parameters. Each evaluation runs the CALIB file's bulk-test cases
+// (with the parameters applied) as child processes of this same binary (`biodem run ...
+// --threads 1`), reads their responses.csv and scores the two objectives. --jobs N runs N
+// child processes at once; rows are written in (generation, index) order after each batch, so
+// the files do not depend on N. Every finished evaluation is appended to DIR/cache.csv at once,
+// so --resume after a kill re-uses it (calib/campaign.hpp).
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "commands.hpp"
+#include "core/error.hpp"
+#include "io/calib_file.hpp"
+#include "io/plot_writer.hpp"
+#ifdef BIODEM_HAVE_PAGMO
+#include "calib/campaign.hpp"
+#endif
 
 namespace biodem::cli {
 
+#ifdef BIODEM_HAVE_PAGMO
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string g17(double v) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+/// All responses the objectives use, in a fixed order (o1's, then o2's new ones).
+std::vector<std::string> response_names(const io::CalibConfig& c) {
+  std::vector<std::string> r;
+  for (const auto* o : {&c.o1, &c.o2})
+    for (const auto& n : o->responses)
+      if (std::find(r.begin(), r.end(), n) == r.end()) r.push_back(n);
+  return r;
+}
+
+std::string header(const io::CalibConfig& c) {
+  std::string h = "generation,index";
+  for (const auto& p : c.parameters) h += "," + p.name;
+  for (const auto& r : response_names(c)) h += "," + r;
+  return h + ",o1,o2,wall_s";
+}
+
+std::string row(const calib::Evaluation& e) {
+  std::string s = std::to_string(e.generation) + "," + std::to_string(e.index);
+  for (double v : e.x) s += "," + g17(v);
+  for (double v : e.responses) s += "," + g17(v);
+  return s + "," + g17(e.o1) + "," + g17(e.o2) + "," + g17(e.wall_s);
+}
+
+/// Rows of a CSV written by row(); malformed or incomplete lines (a kill mid-write) are skipped.
+std::vector<calib::Evaluation> read_rows(const std::string& path, std::size_t n_param, std::size_t n_resp) {
+  std::vector<calib::Evaluation> out;
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) f.push_back(c);
+    if (f.size() != 2 + n_param + n_resp + 3) continue;
+    try {
+      calib::Evaluation e;
+      e.generation = std::stoull(f[0]);
+      e.index = std::stoull(f[1]);
+      for (std::size_t k = 0; k < n_param; ++k) e.x.push_back(std::stod(f[2 + k]));
+      for (std::size_t k = 0; k < n_resp; ++k) e.responses.push_back(std::stod(f[2 + n_param + k]));
+      e.o1 = std::stod(f[2 + n_param + n_resp]);
+      e.o2 = std::stod(f[3 + n_param + n_resp]);
+      e.wall_s = std::stod(f[4 + n_param + n_resp]);
+      out.push_back(e);
+    } catch (const std::exception&) {
+    }
+  }
+  return out;
+}
+
+double objective(const io::CalibConfig& c, const io::CalibObjective& o, const std::map<std::string, double>& r) {
+  double s = 0.0, w = 0.0;
+  for (std::size_t k = 0; k < o.responses.size(); ++k) {
+    const auto it = r.find(o.responses[k]);
+    const double t = io::target_of(c, o.responses[k]).value;
+    const double v = it == r.end() ? NAN : it->second;
+    s += o.weights[k] * std::abs(v - t) / std::abs(t);
+    w += o.weights[k];
+  }
+  return w > 0.0 ? s / w : 0.0;
+}
+
+class Campaign {
+ public:
+  Campaign(io::CalibConfig c, std::string out, int jobs) : c_(std::move(c)), out_(std::move(out)), jobs_(jobs) {}
+
+  int run(bool resume) {
+    const std::string eval_csv = out_ + "/evaluations.csv", cache_csv = out_ + "/cache.csv";
+    const auto names = response_names(c_);
+    std::map<std::vector<double>, calib::Evaluation> cache;
+    if (resume) {
+      if (!fs::exists(cache_csv)) throw Error("--resume: " + cache_csv + " does not exist (nothing to resume)");
+      for (auto& e : read_rows(cache_csv, c_.parameters.size(), names.size())) cache[e.x] = e;
+    } else if (fs::exists(eval_csv) || fs::exists(cache_csv)) {
+      throw Error("--out " + out_ + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
+    }
+    fs::create_directories(out_ + "/runs");
+    log_.open(out_ + "/campaign.log", resume ? std::ios::app : std::ios::trunc);
+    log_ << (resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; population " << c_.population
+         << ", generations " << c_.generations << ", seed " << c_.seed << ", jobs " << jobs_ << "; "
+         << cache.size() << " evaluations cached\n";
+    log_.flush();
+    {
+      std::ofstream f(cache_csv, std::ios::app);
+      if (!resume) f << header(c_) << "\n";
+    }
+    cache_out_.open(cache_csv, std::ios::app);
+    evals_.open(eval_csv, std::ios::trunc);
+    evals_ << header(c_) << "\n";
+    t0_ = std::chrono::steady_clock::now();
+
+    calib::CampaignSettings s;
+    for (const auto& p : c_.parameters) {
+      s.lower.push_back(p.lower);
+      s.upper.push_back(p.upper);
+    }
+    s.population = c_.population;
+    s.generations = c_.generations;
+    s.seed = c_.seed;
+    const std::uint64_t batches = c_.generations + 1;
+    std::uint64_t done = 0;
+    const auto res = calib::run_nsga2(
+        s, [&](std::vector<calib::Evaluation>& b) { evaluate(b); },
+        [&](const std::vector<calib::Evaluation>& b) {
+          for (const auto& e : b) evals_ << row(e) << "\n";
+          evals_.flush();
+          ++done;
+          const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+          double best1 = INFINITY, best2 = INFINITY;
+          for (const auto& e : b) {
+            best1 = std::min(best1, e.o1);
+            best2 = std::min(best2, e.o2);
+          }
+          log_ << "generation " << b.front().generation << " done (" << done << " of " << batches
+               << " batches): best o1 " << best1 << ", best o2 " << best2 << "; elapsed " << el << " s, ETA "
+               << el / static_cast<double>(done) * static_cast<double>(batches - done) << " s\n";
+          log_.flush();
+          std::cerr << "calibrate: batch " << done << " of " << batches << " done\n";
+        },
+        cache);
+    std::ofstream p(out_ + "/pareto.csv", std::ios::trunc);
+    p << header(c_) << "\n";
+    for (const auto& e : res.pareto) p << row(e) << "\n";
+    if (!p) throw Error(out_ + "/pareto.csv: cannot write");
+    plots(res);
+    log_ << "finished: " << res.evaluations.size() << " evaluations, " << res.pareto.size()
+         << " in the Pareto set (pareto.csv)\n";
+    std::cout << "calibrate: done; " << res.pareto.size() << " Pareto points in " << out_ << "/pareto.csv\n";
+    return 0;
+  }
+
+ private:
+  // One evaluation's test runs are independent child processes; a pool of jobs_ threads starts
+  // them (evaluation x test), then each evaluation is scored.
+  void evaluate(std::vector<calib::Evaluation>& batch) {
+    const auto names = response_names(c_);
+    struct Job {
+      std::size_t e, t;
+    };
+    std::vector<Job> todo;
+    for (std::size_t e = 0; e < batch.size(); ++e)
+      for (std::size_t t = 0; t < c_.tests.size(); ++t) todo.push_back({e, t});
+    std::vector<std::map<std::string, double>> responses(batch.size());
+    std::vector<double> wall(batch.size(), 0.0);
+    std::vector<std::string> errors(batch.size());
+    std::mutex mu;
+    std::atomic<std::size_t> next{0};
+    const std::string self = fs::read_symlink("/proc/self/exe").string();
+    auto worker = [&] {
+      for (std::size_t q; (q = next.fetch_add(1)) < todo.size();) {
+        const auto [e, t] = todo[q];
+        const std::string dir = out_ + "/runs/g" + std::to_string(batch[e].generation) + "/e" +
+                                std::to_string(batch[e].index) + "/" + c_.tests[t].name;
+        fs::create_directories(dir);
+        { std::ofstream(dir + "/case.toml") << io::apply_parameters(c_, c_.tests[t], batch[e].x); }
+        const auto t0 = std::chrono::steady_clock::now();
+        const std::string cmd = "'" + self + "' run '" + dir + "/case.toml' --out '" + dir + "/out' --threads 1 > '" +
+                                dir + "/stdout.txt' 2>&1";
+        const int rc = std::system(cmd.c_str());
+        const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::map<std::string, double> r;
+        std::ifstream in(dir + "/out/responses.csv");
+        std::string line;
+        std::getline(in, line);
+        while (std::getline(in, line)) {
+          const auto c1 = line.find(','), c2 = line.find(',', c1 + 1);
+          if (c1 == std::string::npos || c2 == std::string::npos) continue;
+          r[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
+        }
+        std::lock_guard<std::mutex> lock(mu);
+        for (const auto& [k, v] : r) responses[e][k] = v;
+        wall[e] += w;
+        if (rc != 0) errors[e] += " " + c_.tests[t].name + " failed (see " + dir + "/stdout.txt)";
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int k = 0; k < std::max(1, jobs_); ++k) pool.emplace_back(worker);
+    for (auto& th : pool) th.join();
+    for (std::size_t e = 0; e < batch.size(); ++e) {
+      auto& ev = batch[e];
+      ev.responses.clear();
+      for (const auto& n : names) ev.responses.push_back(responses[e].count(n) ? responses[e][n] : NAN);
+      ev.o1 = objective(c_, c_.o1, responses[e]);
+      ev.o2 = objective(c_, c_.o2, responses[e]);
+      if (!errors[e].empty() || !std::isfinite(ev.o1) || !std::isfinite(ev.o2)) {
+        log_ << "evaluation g" << ev.generation << " e" << ev.index << ":" << errors[e]
+             << " - scored as o1 = o2 = 1e9\n";
+        ev.o1 = ev.o2 = 1e9;
+      }
+      ev.wall_s = wall[e];
+      cache_out_ << row(ev) << "\n";
+    }
+    cache_out_.flush();
+  }
+
+  void plots(const calib::CampaignResult& r) {
+    io::Plot pf;
+    pf.title = "Pareto front";
+    pf.x_label = "o1 (relative error)";
+    pf.y_label = "o2 (relative error)";
+    io::PlotSeries all{"all evaluations", {}, {}, io::PlotStyle::markers};
+    io::PlotSeries front{"Pareto set", {}, {}, io::PlotStyle::markers};
+    front.marker = io::Marker::triangle_up;
+    front.marker_size = 6.0;
+    for (const auto& e : r.evaluations)
+      if (e.o1 < 1e9) {
+        all.x.push_back(e.o1);
+        all.y.push_back(e.o2);
+      }
+    for (const auto& e : r.pareto) {
+      front.x.push_back(e.o1);
+      front.y.push_back(e.o2);
+    }
+    pf.series = {all, front};
+    io::write_plot(pf, out_ + "/pareto");
+    const auto names = response_names(c_);
+    for (std::size_t i = 0; i < names.size(); ++i)
+      for (std::size_t k = 0; k < c_.parameters.size(); ++k) {
+        io::Plot p;
+        p.title = names[i] + " vs " + c_.parameters[k].name;
+        p.x_label = c_.parameters[k].name;
+        p.y_label = names[i];
+        io::PlotSeries s{"evaluations", {}, {}, io::PlotStyle::markers};
+        for (const auto& e : r.evaluations)
+          if (std::isfinite(e.responses[i])) {
+            s.x.push_back(e.x[k]);
+            s.y.push_back(e.responses[i]);
+          }
+        io::PlotSeries t{"target", {c_.parameters[k].lower, c_.parameters[k].upper},
+                         {io::target_of(c_, names[i]).value, io::target_of(c_, names[i]).value}};
+        p.series = {s, t};
+        io::write_plot(p, out_ + "/" + names[i] + "_vs_" + c_.parameters[k].name);
+      }
+  }
+
+  io::CalibConfig c_;
+  std::string out_;
+  int jobs_;
+  std::ofstream log_, evals_, cache_out_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+}  // namespace
+#endif
+
 Action register_calibrate(CLI::App& app) {
-  auto* sub = app.add_subcommand("calibrate", "Bulk-test calibration campaign (NSGA-II) - not yet available");
+  auto* sub = app.add_subcommand("calibrate", "Bulk-test calibration campaign (NSGA-II over case parameters)");
   static std::string calib_path, out_dir;
-  sub->add_option("CALIB", calib_path, "calibration case (TOML)");
-  sub->add_option("--out", out_dir, "output directory");
+  static int jobs = 1;
+  static bool resume = false;
+  sub->add_option("CALIB", calib_path, "calibration file (TOML)")->required();
+  sub->add_option("--out", out_dir, "output directory")->required();
+  sub->add_option("--jobs", jobs, "evaluations run at once on this machine (child processes)")
+      ->check(CLI::PositiveNumber);
+  sub->add_flag("--resume", resume, "re-use the finished evaluations of an interrupted campaign in --out");
   return [] {
-    std::cerr << "biodem: error: calibrate is not implemented yet in this version\n";
+#ifdef BIODEM_HAVE_PAGMO
+    io::CalibConfig c = io::load_calib(calib_path);
+    Campaign campaign(std::move(c), out_dir, jobs);
+    return campaign.run(resume);
+#else
+    std::cerr << "biodem: error: calibrate is not built (pagmo, libpagmo-dev, was not found at build time)\n";
     return 2;
+#endif
   };
 }
 
