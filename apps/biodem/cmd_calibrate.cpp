@@ -197,11 +197,15 @@ class Campaign {
         const std::string dir = out_ + "/runs/g" + std::to_string(batch[e].generation) + "/e" +
                                 std::to_string(batch[e].index) + "/" + c_.tests[t].name;
         fs::create_directories(dir);
-        { std::ofstream(dir + "/case.toml") << io::apply_parameters(c_, c_.tests[t], batch[e].x); }
+        const std::string text = io::apply_parameters(c_, c_.tests[t], batch[e].x);
         const auto t0 = std::chrono::steady_clock::now();
-        const std::string cmd = "'" + self + "' run '" + dir + "/case.toml' --out '" + dir + "/out' --threads 1 > '" +
-                                dir + "/stdout.txt' 2>&1";
-        const int rc = std::system(cmd.c_str());
+        int rc = 0;
+        if (!finished_run(dir, text)) {  // a run finished before a kill is re-used as it is (deterministic)
+          { std::ofstream(dir + "/case.toml") << text; }
+          const std::string cmd = "'" + self + "' run '" + dir + "/case.toml' --out '" + dir +
+                                  "/out' --threads 1 > '" + dir + "/stdout.txt' 2>&1";
+          rc = std::system(cmd.c_str());
+        }
         const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         std::map<std::string, double> r;
         std::ifstream in(dir + "/out/responses.csv");
@@ -236,6 +240,16 @@ class Campaign {
       cache_out_ << row(ev) << "\n";
     }
     cache_out_.flush();
+  }
+
+  // A test run of an earlier (killed) attempt at the same evaluation: same case text, and its
+  // run.log ends with "finished:" (written after responses.csv).
+  static bool finished_run(const std::string& dir, const std::string& text) {
+    std::ifstream c(dir + "/case.toml"), l(dir + "/out/run.log");
+    if (!c || !l) return false;
+    const std::string old((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
+    const std::string log((std::istreambuf_iterator<char>(l)), std::istreambuf_iterator<char>());
+    return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
   }
 
   void plots(const calib::CampaignResult& r) {

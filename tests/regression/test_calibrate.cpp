@@ -52,17 +52,20 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
   EXPECT_TRUE(fs::exists(a + "/pareto.svg"));
   EXPECT_TRUE(fs::exists(a + "/retainment_ratio_vs_ced_j_m3.png"));
 
-  // Kill a campaign (and its child runs) once 3 evaluations are finished, then resume it.
+  // Kill a campaign (and its child runs) in the middle of its second batch, once two test runs
+  // of that batch have finished, then resume it: the first batch comes from cache.csv, the
+  // finished runs of the second are re-used, the rest is run.
   const std::string c = fresh_dir("calib_killed");
   const std::string script = "setsid " + biodem_exe() + " calibrate " + kCalib + " --out " + c +
                              " --jobs 2 >/dev/null 2>&1 & pid=$!; "
-                             "for i in $(seq 1 1200); do n=$(cat " + c + "/cache.csv 2>/dev/null | wc -l); "
-                             "[ \"$n\" -ge 4 ] && break; sleep 0.05; done; kill -9 -$pid; wait $pid; true";
+                             "for i in $(seq 1 2400); do n=$(cat " + c + "/runs/g1/*/*/out/run.log 2>/dev/null | "
+                             "grep -c ^finished:); [ \"$n\" -ge 2 ] && break; sleep 0.05; done; kill -9 -$pid; "
+                             "wait $pid; true";
   run_command("bash -c '" + script + "'");
   const std::size_t cached = lines(c + "/cache.csv") - 1;
   std::printf("[measured] killed after %zu finished evaluations\n", cached);
-  ASSERT_GE(cached, 3u);
-  ASSERT_LT(cached, 16u) << "the campaign finished before it could be killed";
+  ASSERT_EQ(cached, 8u);
+  ASSERT_FALSE(fs::exists(c + "/pareto.csv")) << "the campaign finished before it could be killed";
   const auto r = run_command(biodem_exe() + " calibrate " + kCalib + " --out " + c + " --jobs 2 --resume");
   ASSERT_EQ(r.status, 0) << r.output;
   std::ifstream log(c + "/campaign.log");
