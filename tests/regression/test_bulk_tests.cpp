@@ -114,3 +114,15 @@ TEST(BulkTests, RetainmentRisesWithCohesion) {
   EXPECT_GT(hi["retainment_ratio"], lo["retainment_ratio"] + 0.1);
   EXPECT_NEAR(lo["mass_poured_kg"], 700 * 2500.0 * 4.0 / 3.0 * 3.14159265358979 * 1e-9, 1e-9);
 }
+
+// The shipped raw-biomass bulk tests (cases/calibration, base merged in) are valid cases.
+TEST(BulkTests, ShippedRawBiomassTestsAreValid) {
+  const std::string dir = source_dir() + "/cases/calibration/";
+  for (const char* t : {"heap_raw.toml", "bulk_density_raw.toml", "shear_box_raw.toml"}) {
+    const std::string d = fresh_dir(std::string("raw_check_") + t);
+    fs::create_directories(d);
+    { std::ofstream(d + "/case.toml") << slurp(dir + "base_raw.toml") << "\n" << slurp(dir + t); }
+    const auto r = run_command(biodem_exe() + " check " + d + "/case.toml");
+    EXPECT_EQ(r.status, 0) << t << ": " << r.output;
+  }
+}
