@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -27,6 +28,9 @@
 #include "io/plot_writer.hpp"
 #ifdef BIODEM_HAVE_PAGMO
 #include "calib/campaign.hpp"
+#endif
+#ifdef BIODEM_HAVE_MPI
+#include <mpi.h>
 #endif
 
 namespace biodem::cli {
@@ -104,6 +108,94 @@ double objective(const io::CalibConfig& c, const io::CalibObjective& o, const st
   }
   return w > 0.0 ? s / w : 0.0;
 }
+
+struct TestRun {
+  int rc = 0;
+  double wall_s = 0.0;
+  std::map<std::string, double> responses;
+};
+
+// A test run of an earlier (killed) attempt at the same evaluation: same case text, and its
+// run.log ends with "finished:" (written after responses.csv).
+bool finished_run(const std::string& dir, const std::string& text) {
+  std::ifstream c(dir + "/case.toml"), l(dir + "/out/run.log");
+  if (!c || !l) return false;
+  const std::string old((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
+  const std::string log((std::istreambuf_iterator<char>(l)), std::istreambuf_iterator<char>());
+  return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
+}
+
+/// Runs one bulk-test case in `dir` as a child process of this binary (or re-uses a finished run).
+TestRun run_test(const std::string& dir, const std::string& text) {
+  static const std::string self = fs::read_symlink("/proc/self/exe").string();
+  TestRun r;
+  fs::create_directories(dir);
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!finished_run(dir, text)) {  // a run finished before a kill is re-used as it is (deterministic)
+    { std::ofstream(dir + "/case.toml") << text; }
+    const std::string cmd = "'" + self + "' run '" + dir + "/case.toml' --out '" + dir + "/out' --threads 1 > '" +
+                            dir + "/stdout.txt' 2>&1";
+    r.rc = std::system(cmd.c_str());
+  }
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::ifstream in(dir + "/out/responses.csv");
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    const auto c1 = line.find(','), c2 = line.find(',', c1 + 1);
+    if (c1 == std::string::npos || c2 == std::string::npos) continue;
+    r.responses[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
+  }
+  return r;
+}
+
+#ifdef BIODEM_HAVE_MPI
+// MPI: rank 0 runs NSGA-II and hands each test run to the next free rank (tags below); the
+// other ranks run what they are given until told to stop.
+constexpr int kTagJob = 1, kTagResult = 2, kTagStop = 3;
+
+void mpi_send_text(const std::string& s, int to, int tag) {
+  MPI_Send(s.data(), static_cast<int>(s.size()), MPI_CHAR, to, tag, MPI_COMM_WORLD);
+}
+std::string mpi_recv_text(int from, int tag, MPI_Status& st) {
+  MPI_Probe(from, tag, MPI_COMM_WORLD, &st);
+  int n = 0;
+  MPI_Get_count(&st, MPI_CHAR, &n);
+  std::string s(static_cast<std::size_t>(n), '\0');
+  MPI_Recv(s.data(), n, MPI_CHAR, st.MPI_SOURCE, st.MPI_TAG, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  return s;
+}
+
+// Job message: "<job id>\n<dir>\n<case text>"; result: "<job id> <rc> <wall_s>\n<name>,<value>\n...".
+void mpi_worker() {
+  for (;;) {
+    MPI_Status st;
+    MPI_Probe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &st);
+    if (st.MPI_TAG == kTagStop) {
+      char c;
+      MPI_Recv(&c, 0, MPI_CHAR, 0, kTagStop, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      return;
+    }
+    const std::string msg = mpi_recv_text(0, kTagJob, st);
+    const auto a = msg.find('\n'), b = msg.find('\n', a + 1);
+    const std::string id = msg.substr(0, a), dir = msg.substr(a + 1, b - a - 1), text = msg.substr(b + 1);
+    const TestRun r = run_test(dir, text);
+    std::string out = id + " " + std::to_string(r.rc) + " " + g17(r.wall_s) + "\n";
+    for (const auto& [k, v] : r.responses) out += k + "," + g17(v) + "\n";
+    mpi_send_text(out, 0, kTagResult);
+  }
+}
+
+int mpi_size() {
+  int n = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &n);
+  return n;
+}
+
+void mpi_stop_workers() {
+  for (int r = 1; r < mpi_size(); ++r) MPI_Send(nullptr, 0, MPI_CHAR, r, kTagStop, MPI_COMM_WORLD);
+}
+#endif
 
 class Campaign {
  public:
@@ -188,43 +280,59 @@ class Campaign {
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());
-    std::mutex mu;
-    std::atomic<std::size_t> next{0};
-    const std::string self = fs::read_symlink("/proc/self/exe").string();
-    auto worker = [&] {
-      for (std::size_t q; (q = next.fetch_add(1)) < todo.size();) {
-        const auto [e, t] = todo[q];
-        const std::string dir = out_ + "/runs/g" + std::to_string(batch[e].generation) + "/e" +
-                                std::to_string(batch[e].index) + "/" + c_.tests[t].name;
-        fs::create_directories(dir);
-        const std::string text = io::apply_parameters(c_, c_.tests[t], batch[e].x);
-        const auto t0 = std::chrono::steady_clock::now();
-        int rc = 0;
-        if (!finished_run(dir, text)) {  // a run finished before a kill is re-used as it is (deterministic)
-          { std::ofstream(dir + "/case.toml") << text; }
-          const std::string cmd = "'" + self + "' run '" + dir + "/case.toml' --out '" + dir +
-                                  "/out' --threads 1 > '" + dir + "/stdout.txt' 2>&1";
-          rc = std::system(cmd.c_str());
-        }
-        const double w = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        std::map<std::string, double> r;
-        std::ifstream in(dir + "/out/responses.csv");
+    auto dir_of = [&](const Job& j) {
+      return out_ + "/runs/g" + std::to_string(batch[j.e].generation) + "/e" + std::to_string(batch[j.e].index) + "/" +
+             c_.tests[j.t].name;
+    };
+    auto record = [&](const Job& j, const TestRun& r) {
+      for (const auto& [k, v] : r.responses) responses[j.e][k] = v;
+      wall[j.e] += r.wall_s;
+      if (r.rc != 0) errors[j.e] += " " + c_.tests[j.t].name + " failed (see " + dir_of(j) + "/stdout.txt)";
+    };
+#ifdef BIODEM_HAVE_MPI
+    if (mpi_ranks_ > 1) {
+      std::size_t sent = 0, received = 0;
+      auto send = [&](int rank) {
+        const Job& j = todo[sent];
+        mpi_send_text(std::to_string(sent) + "\n" + dir_of(j) + "\n" + io::apply_parameters(c_, c_.tests[j.t], batch[j.e].x),
+                      rank, kTagJob);
+        ++sent;
+      };
+      for (int rank = 1; rank < mpi_ranks_ && sent < todo.size(); ++rank) send(rank);
+      while (received < sent) {
+        MPI_Status st;
+        const std::string msg = mpi_recv_text(MPI_ANY_SOURCE, kTagResult, st);
+        std::istringstream in(msg);
+        std::size_t id = 0;
+        TestRun r;
+        in >> id >> r.rc >> r.wall_s;
         std::string line;
         std::getline(in, line);
         while (std::getline(in, line)) {
-          const auto c1 = line.find(','), c2 = line.find(',', c1 + 1);
-          if (c1 == std::string::npos || c2 == std::string::npos) continue;
-          r[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
+          const auto c = line.find(',');
+          if (c != std::string::npos) r.responses[line.substr(0, c)] = std::stod(line.substr(c + 1));
         }
-        std::lock_guard<std::mutex> lock(mu);
-        for (const auto& [k, v] : r) responses[e][k] = v;
-        wall[e] += w;
-        if (rc != 0) errors[e] += " " + c_.tests[t].name + " failed (see " + dir + "/stdout.txt)";
+        record(todo[id], r);
+        ++received;
+        if (sent < todo.size()) send(st.MPI_SOURCE);
       }
-    };
-    std::vector<std::thread> pool;
-    for (int k = 0; k < std::max(1, jobs_); ++k) pool.emplace_back(worker);
-    for (auto& th : pool) th.join();
+    } else
+#endif
+    {
+      std::mutex mu;
+      std::atomic<std::size_t> next{0};
+      auto worker = [&] {
+        for (std::size_t q; (q = next.fetch_add(1)) < todo.size();) {
+          const Job& j = todo[q];
+          const TestRun r = run_test(dir_of(j), io::apply_parameters(c_, c_.tests[j.t], batch[j.e].x));
+          std::lock_guard<std::mutex> lock(mu);
+          record(j, r);
+        }
+      };
+      std::vector<std::thread> pool;
+      for (int k = 0; k < std::max(1, jobs_); ++k) pool.emplace_back(worker);
+      for (auto& th : pool) th.join();
+    }
     for (std::size_t e = 0; e < batch.size(); ++e) {
       auto& ev = batch[e];
       ev.responses.clear();
@@ -240,16 +348,6 @@ class Campaign {
       cache_out_ << row(ev) << "\n";
     }
     cache_out_.flush();
-  }
-
-  // A test run of an earlier (killed) attempt at the same evaluation: same case text, and its
-  // run.log ends with "finished:" (written after responses.csv).
-  static bool finished_run(const std::string& dir, const std::string& text) {
-    std::ifstream c(dir + "/case.toml"), l(dir + "/out/run.log");
-    if (!c || !l) return false;
-    const std::string old((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
-    const std::string log((std::istreambuf_iterator<char>(l)), std::istreambuf_iterator<char>());
-    return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
   }
 
   void plots(const calib::CampaignResult& r) {
@@ -295,6 +393,9 @@ class Campaign {
   io::CalibConfig c_;
   std::string out_;
   int jobs_;
+ public:
+  int mpi_ranks_ = 1;  // > 1: test runs go to MPI ranks 1 .. n-1
+ private:
   std::ofstream log_, evals_, cache_out_;
   std::chrono::steady_clock::time_point t0_;
 };
@@ -314,6 +415,34 @@ Action register_calibrate(CLI::App& app) {
   sub->add_flag("--resume", resume, "re-use the finished evaluations of an interrupted campaign in --out");
   return [] {
 #ifdef BIODEM_HAVE_PAGMO
+#ifdef BIODEM_HAVE_MPI
+    // Under mpirun (OpenMPI sets OMPI_COMM_WORLD_SIZE): rank 0 runs the campaign, the others
+    // run test cases. Without mpirun, no MPI at all.
+    if (std::getenv("OMPI_COMM_WORLD_SIZE")) {
+      MPI_Init(nullptr, nullptr);
+      int rank = 0;
+      MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+      if (rank != 0) {
+        mpi_worker();
+        MPI_Finalize();
+        return 0;
+      }
+      int status = 0;
+      try {
+        io::CalibConfig c = io::load_calib(calib_path);
+        Campaign campaign(std::move(c), out_dir, jobs);
+        campaign.mpi_ranks_ = mpi_size();
+        status = campaign.run(resume);
+      } catch (...) {
+        mpi_stop_workers();
+        MPI_Finalize();
+        throw;
+      }
+      mpi_stop_workers();
+      MPI_Finalize();
+      return status;
+    }
+#endif
     io::CalibConfig c = io::load_calib(calib_path);
     Campaign campaign(std::move(c), out_dir, jobs);
     return campaign.run(resume);

@@ -1,5 +1,5 @@
 // `biodem calibrate` (issue 9): the result depends only on the CALIB file and its seed, not on
-// --jobs, and a killed campaign resumed with --resume ends exactly like an uninterrupted one.
+// --jobs or MPI, and a killed campaign resumed with --resume ends exactly like an uninterrupted one.
 // Micro campaign (tests/cases/calib_micro): 8 x (1 + 1 generation) evaluations of a 120-bead heap
 // and a 100-bead shear box, ~20-40 s per campaign. Rows are compared without wall_s (a timing).
 #include <gtest/gtest.h>
@@ -73,6 +73,16 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
   EXPECT_NE(text.find(std::to_string(cached) + " evaluations cached"), std::string::npos) << text;
   EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(c + "/evaluations.csv"));
   EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(c + "/pareto.csv"));
+
+#ifdef BIODEM_HAVE_MPI
+  // The same campaign over 3 MPI ranks on localhost (rank 0 runs NSGA-II, ranks 1-2 the tests).
+  const std::string m = fresh_dir("calib_mpi");
+  const auto rm = run_command("mpirun --oversubscribe --allow-run-as-root -np 3 " + biodem_exe() + " calibrate " +
+                              kCalib + " --out " + m);
+  ASSERT_EQ(rm.status, 0) << rm.output;
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(m + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(m + "/pareto.csv"));
+#endif
 }
 
 // Bad CALIB files: one line naming the key, non-zero exit, before any run (no runs/ folder).
