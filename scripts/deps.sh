@@ -3,7 +3,7 @@
 set -euo pipefail
 PKGS=(build-essential cmake pkg-config
       libtomlplusplus-dev libcli11-dev libgtest-dev libbenchmark-dev libomp-dev libopencv-dev libthrust-dev
-      python3 python3-vtk9)
+      python3 python3-vtk9 libpagmo-dev libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${PKGS[@]}"; do dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p"); done
 if [ ${#missing[@]} -gt 0 ]; then

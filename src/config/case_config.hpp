@@ -157,6 +157,13 @@ struct Phase {
   std::optional<double> max_duration_s;  // cap for criterion phases
   double min_duration_s = 0.0;
   double settle_hold_s = 0.01;
+  // Prescribed wall motion started by this phase (bulk tests): wall `move_wall` translates at
+  // move_velocity_m_s for the whole phase.
+  std::optional<std::size_t> move_wall;
+  Vec3d move_velocity_m_s{};
+  // Bulk tests: the criterion uses the translational kinetic energy only (a sphere spinning about
+  // the contact normal meets no resistance in this contact model and would never count as at rest).
+  bool translational_criterion = false;
 };
 
 struct Output {
@@ -176,6 +183,31 @@ struct ContactOptions {
   WallRollingReference wall_rolling_reference = WallRollingReference::Wall;
 };
 
+/// The bulk tests of SPEC 7 (issue 9): a case block [heap], [bulk_density] or [shear_box] that
+/// the parser expands into walls, a sink, the insertion region and the phases; the run driver
+/// measures the responses once the scene is at rest and writes responses.csv.
+struct BulkTest {
+  enum class Kind { Heap, BulkDensity, ShearBox };
+  Kind kind = Kind::Heap;
+  // [heap]: a hollow cylinder (axis +y) on a base disc, lifted after the fill settles.
+  double cylinder_diameter_m = 0.0, cylinder_height_m = 0.0, lift_speed_m_s = 0.0, base_diameter_m = 0.0;
+  std::size_t cylinder_material = 0, base_material = 0;
+  double fit_from_fraction = 0.2, fit_to_fraction = 0.8;
+  // [bulk_density]: a cylindrical container on its bottom disc, filled until it overflows.
+  double container_diameter_m = 0.0, container_height_m = 0.0;
+  std::size_t container_material = 0;
+  // [shear_box]: a box x in [0, L], y in [0, H], z in [-W/2, W/2]; the gate is the side x = L.
+  double length_m = 0.0, width_m = 0.0, height_m = 0.0, gate_lift_speed_m_s = 0.0;
+  std::size_t material = 0;
+  // Rest criterion (every test): mean kinetic energy per body below rest_fraction x m g d (m,
+  // d: mean particle mass and volume-equivalent diameter) for rest_hold_s; caps max_fill_s and
+  // max_rest_s.
+  double rest_fraction = 1e-4;
+  double rest_mean_kinetic_energy_j = 0.0;  // resolved by the parser
+  double rest_hold_s = 0.02, max_fill_s = 3.0, max_rest_s = 3.0;
+  double pour_height_factor = 1.5;  // bulk density: the pour region is this many container heights tall
+};
+
 struct CaseConfig {
   std::string source_path;
   RunConfig run;
@@ -188,6 +220,7 @@ struct CaseConfig {
   std::optional<Drum> drum;
   std::vector<Wall> walls;
   std::vector<Sink> sinks;
+  std::optional<BulkTest> bulk_test;
   std::vector<Particle> particles;
   std::optional<Domain> domain;
   std::vector<Phase> phases;

@@ -15,6 +15,8 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <optional>
+#include <numbers>
 #include <random>
 #include <sstream>
 
@@ -36,6 +38,7 @@
 #include "io/output_dir.hpp"
 #include "io/progress.hpp"
 #include "io/vtk_writer.hpp"
+#include "scenario/bulk_measures.hpp"
 
 namespace biodem::driver {
 namespace {
@@ -50,6 +53,9 @@ struct PhasePlan {
   double ke_threshold_j = 0.0;
   std::uint64_t min_steps = 0;
   std::uint64_t hold_steps = 1;
+  bool translational = false;            // criterion on translational kinetic energy only
+  std::optional<std::size_t> move_wall;  // bulk tests: wall translated during the phase
+  Vec3 move_velocity_m_s;
 };
 
 std::uint64_t steps_for(double seconds, double dt) {
@@ -63,6 +69,9 @@ std::vector<PhasePlan> plan_phases(const config::CaseConfig& c) {
     PhasePlan q;
     q.name = p.name;
     q.rotate = p.rotate;
+    q.move_wall = p.move_wall;
+    q.translational = p.translational_criterion;
+    q.move_velocity_m_s = {p.move_velocity_m_s[0], p.move_velocity_m_s[1], p.move_velocity_m_s[2]};
     if (p.until_mean_kinetic_energy_j) {
       q.criterion = true;
       q.ke_threshold_j = *p.until_mean_kinetic_energy_j;
@@ -92,6 +101,8 @@ class Runner {
     // stops here with one line.
     if (device_ == config::Device::Gpu) dev_ = gpu::make_device_engine(gpu::Backend::Cuda, sim_);
     if (device_ == config::Device::GpuEmulated) dev_ = gpu::make_device_engine(gpu::Backend::HostThreads, sim_);
+    if (dev_ && cfg_.bulk_test)
+      throw Error(cfg_.source_path + ": the bulk tests ([heap], [bulk_density], [shear_box]) run on the CPU engine only (--device cpu)");
 #if !BIODEM_HAVE_OPENCV
     if (cfg_.output.frame_every_s)
       throw Error(cfg_.source_path + ": [output] frame_every_s: back-lit frames are not built in this lean build (no OpenCV)");
@@ -104,6 +115,7 @@ class Runner {
   void write_log_header();
   void insert_all();
   void insert_into_region();
+  void write_responses();
   void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
   void frame();
   void checkpoint();
@@ -151,6 +163,7 @@ class Runner {
   std::uint64_t synced_step_ = ~std::uint64_t{0};
   bool synced_history_ = false;
   bool device_current_ = false;  // the device holds the run's state (host may lag behind)
+  bool last_settled_ = false;
 };
 
 void Runner::advance() {
@@ -534,6 +547,73 @@ void Runner::insert_into_region() {
   }
 }
 
+// Responses of a bulk test (SPEC 7, 11), measured on the final state: docs/calibration.md.
+void Runner::write_responses() {
+  const auto& b = *cfg_.bulk_test;
+  const auto& s = sim_.spheres();
+  const auto& bd = sim_.bodies();
+  struct Row {
+    std::string name;
+    double value;
+    std::string unit;
+  };
+  std::vector<Row> rows;
+  double d = 0.0;  // profile bin: the largest volume-equivalent diameter of the poured shapes
+  for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
+  if (b.kind == config::BulkTest::Kind::Heap) {
+    const auto h = scenario::measure_heap(s.position_m, s.radius_m, {0, 0, 0}, {0, 1, 0}, d, b.fit_from_fraction,
+                                          b.fit_to_fraction);
+    rows.push_back({"angle_of_repose_deg", h.angle_deg, "deg"});
+    rows.push_back({"heap_height_m", h.height_m, "m"});
+    rows.push_back({"heap_base_radius_m", h.base_radius_m, "m"});
+    rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
+  } else if (b.kind == config::BulkTest::Kind::BulkDensity) {
+    const double R = 0.5 * b.container_diameter_m, H = b.container_height_m;
+    double m = 0.0, v = 0.0, y_max = -1e300, v_core = 0.0;
+    const double rc = R - d;  // core: one particle size away from the wall, the bottom and the rim
+    for (std::size_t i = 0; i < bd.size(); ++i) {
+      const Vec3 x = bd.position_m[i];
+      y_max = std::max(y_max, x.y);
+      if (x.y > d && x.y < H - d && x.x * x.x + x.z * x.z < rc * rc) v_core += sim_.templates()[bd.shape[i]].volume_m3;
+      if (x.y > H || x.x * x.x + x.z * x.z > R * R || x.y < 0.0) continue;  // struck off, or outside
+      m += bd.mass_kg[i];
+      v += sim_.templates()[bd.shape[i]].volume_m3;
+    }
+    if (!(y_max > H))
+      throw Error("[insertion].count = " + std::to_string(bd.size() + sim_.removed_bodies()) +
+                  ": the container did not overflow (highest body centre at " + std::to_string(y_max) +
+                  " m, rim at " + std::to_string(H) + " m); pour more particles");
+    const double volume = std::numbers::pi * R * R * H;
+    rows.push_back({"bulk_density_kg_m3", m / volume, "kg/m3"});
+    rows.push_back({"solid_fraction", v / volume, "-"});
+    rows.push_back({"mass_in_container_kg", m, "kg"});
+    if (rc > 0.0 && H > 2.0 * d)
+      rows.push_back({"core_solid_fraction", v_core / (std::numbers::pi * rc * rc * (H - 2.0 * d)), "-"});
+  } else {
+    double m_in = 0.0, m_all = sim_.removed_mass_kg();
+    for (std::size_t i = 0; i < bd.size(); ++i) {
+      m_all += bd.mass_kg[i];
+      if (bd.position_m[i].x < b.length_m) m_in += bd.mass_kg[i];
+    }
+    rows.push_back({"retainment_ratio", m_all > 0.0 ? m_in / m_all : 0.0, "-"});
+    rows.push_back({"mass_retained_kg", m_in, "kg"});
+    rows.push_back({"mass_poured_kg", m_all, "kg"});
+  }
+  rows.push_back({"at_rest", last_settled_ ? 1.0 : 0.0, "-"});
+  const std::string path = opt_.out_dir + "/responses.csv";
+  std::ofstream f(path, std::ios::trunc);
+  f << "response,value,unit\n";
+  char buf[64];
+  for (const auto& r : rows) {
+    std::snprintf(buf, sizeof buf, "%.9g", r.value);
+    f << r.name << "," << buf << "," << r.unit << "\n";
+  }
+  if (!f) throw Error(path + ": cannot write");
+  log_ << "responses (" << path << "):";
+  for (const auto& r : rows) log_ << " " << r.name << " = " << r.value << " " << r.unit << ";";
+  log_ << (last_settled_ ? "" : " WARNING: the scene was not at rest when measured (max_rest_s reached)") << "\n";
+}
+
 void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below) {
   current_phase_ = p.name;
   phase_index_ = index;
@@ -542,13 +622,20 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "phase " << index + 1 << " '" << p.name << "' " << (start_step ? "resumes" : "starts") << " at t = "
        << sim_.time_s() << " s (step " << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
   std::uint64_t k = start_step;
+  if (p.move_wall && start_step == 0) {
+    const double t_end = sim_.time_s() + static_cast<double>(p.max_steps) * sim_.dt_s();
+    sim_.start_wall_translation(*p.move_wall, p.move_velocity_m_s, sim_.time_s(), t_end);
+    log_ << "wall " << *p.move_wall + 1 << " moves at (" << p.move_velocity_m_s.x << ", " << p.move_velocity_m_s.y
+         << ", " << p.move_velocity_m_s.z << ") m/s until t = " << t_end << " s\n";
+  }
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   while (!settled && k < p.max_steps) {
     advance();
     ++k;
     if (p.criterion) {
-      const double mean_ke = sim_.bodies().size() ? kinetic_energy_j() / sim_.bodies().size() : 0.0;
+      const double ke = p.translational ? sim_.translational_kinetic_energy_j() : kinetic_energy_j();
+      const double mean_ke = sim_.bodies().size() ? ke / sim_.bodies().size() : 0.0;
       below = mean_ke < p.ke_threshold_j ? below + 1 : 0;
       settled = k >= p.min_steps && below >= p.hold_steps;
     }
@@ -563,6 +650,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "; wall " << wall << " s, " << (k ? 1e6 * wall / static_cast<double>(k) : 0.0) << " us/step, " << rate
        << " sphere-steps/s";
   if (!dev_) log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
+  if (p.criterion) last_settled_ = below >= p.hold_steps;
   if (p.criterion)
     log_ << (below >= p.hold_steps ? " (settled: mean kinetic energy below threshold)"
                                    : " (max_duration_s reached before the bed was at rest)");
@@ -580,6 +668,7 @@ RunSummary Runner::run() {
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
     fs::remove(opt_.out_dir + "/checkpoint.bin");
     fs::remove(opt_.out_dir + "/trace.csv");
+    fs::remove(opt_.out_dir + "/responses.csv");
     fs::remove_all(opt_.out_dir + "/snapshots");
     fs::remove_all(opt_.out_dir + "/frames");
   }
@@ -663,6 +752,7 @@ RunSummary Runner::run() {
     settle_counter_ = 0;
   }
   sync(true);
+  if (cfg_.bulk_test) write_responses();
   if (sim_.step_count() % sample_every_ != 0) sample();  // the series always ends at the final state
   if (last_snapshot_step_ != sim_.step_count()) snapshot();
   phase_index_ = phases.size();

@@ -239,6 +239,13 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   o.pod<double>(sim.skin_m());
   o.pod<std::uint64_t>(sim.removed_bodies());
   o.pod<double>(sim.removed_mass_kg());
+  for (std::size_t k = 0; k < sim.walls().size(); ++k) {  // wall motion schedules (started at run time)
+    const auto& w = sim.walls()[k];
+    o.pod(sim.wall_initial_point_m(k));
+    o.pod(w.translation_velocity_m_s);
+    o.pod(w.move_start_s);
+    o.pod(w.move_end_s);
+  }
 
   const auto& payload = o.bytes();
   const std::uint64_t sum = fnv1a(payload.data(), payload.size());
@@ -326,9 +333,26 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   const auto removed = in.pod<std::uint64_t>();
   const double removed_mass = in.pod<double>();
   sim.set_removed(removed, removed_mass);
+  struct Schedule {
+    Vec3 p, v;
+    double t0, t1;
+  };
+  std::vector<Schedule> schedules;
+  for (std::size_t k = 0; k < sim.walls().size(); ++k) {
+    Schedule q;
+    q.p = in.pod<Vec3>();
+    q.v = in.pod<Vec3>();
+    q.t0 = in.pod<double>();
+    q.t1 = in.pod<double>();
+    schedules.push_back(q);
+  }
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   if (!std::isfinite(time) || !std::isfinite(rp.rotation_time_s) || !(skin >= 0.0 && skin < 1e300))
     throw Error(path + ": corrupt checkpoint (time or skin)");
+  sim.set_time_s(time);
+  for (std::size_t k = 0; k < schedules.size(); ++k)
+    if (schedules[k].t1 > schedules[k].t0)
+      sim.set_wall_translation(k, schedules[k].p, schedules[k].v, schedules[k].t0, schedules[k].t1);
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
   check_consistency(sim, path);
   return rp;

@@ -564,6 +564,12 @@ double Simulation::kinetic_energy_j() const {
   return e;
 }
 
+double Simulation::translational_kinetic_energy_j() const {
+  double e = 0.0;
+  for (std::size_t b = 0; b < bodies_.size(); ++b) e += 0.5 * bodies_.mass_kg[b] * norm2(bodies_.velocity_m_s[b]);
+  return e;
+}
+
 double Simulation::elastic_energy_j() const {
   double e = 0.0;
   const auto& s = spheres_;

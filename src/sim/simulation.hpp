@@ -83,6 +83,20 @@ class Simulation {
   std::uint32_t add_wall(const WallSpec& w);
   std::uint32_t add_body(const BodyInit& b);
   void add_sink(const SinkSpec& s) { sinks_.push_back(s); }
+  /// Starts a prescribed translation of wall k now (it rests before): velocity v from t0 to t1.
+  void start_wall_translation(std::size_t k, const Vec3& v, double t0, double t1) {
+    set_wall_translation(k, walls_[k].geometry.point_m, v, t0, t1);
+  }
+  /// The full schedule (checkpoints): point at t = initial + v clamp(t - t0, 0, t1 - t0).
+  void set_wall_translation(std::size_t k, const Vec3& initial_point_m, const Vec3& v, double t0, double t1) {
+    wall_initial_point_m_[k] = initial_point_m;
+    walls_[k].translation_velocity_m_s = v;
+    walls_[k].move_start_s = t0;
+    walls_[k].move_end_s = t1;
+    update_wall_motion(time_s_);
+    if (list_valid_) update_wall_candidates();  // a moving wall is a candidate of every sphere
+  }
+  const Vec3& wall_initial_point_m(std::size_t k) const { return wall_initial_point_m_[k]; }
   const std::vector<SinkSpec>& sinks() const { return sinks_; }
   /// Removes the bodies flagged (by storage index) with their spheres and contacts; the others
   /// keep their stable ids and their contact history. Counts them and their mass as removed.
@@ -144,6 +158,7 @@ class Simulation {
   const neighbor::Domain& domain() const { return domain_; }
 
   double kinetic_energy_j() const;          // translational + rotational, all bodies
+  double translational_kinetic_energy_j() const;  // sum of m v^2 / 2 (serial, reproducible)
   std::size_t contact_count() const { return contacts_; }  // touching pairs + wall contacts (last force evaluation)
   double elastic_energy_j() const;          // Hertz normal elastic energy of all open contacts
   Vec3 linear_momentum() const;

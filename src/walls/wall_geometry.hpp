@@ -41,8 +41,8 @@ struct WallHit {
 /// cylinder (length_m > 0) is an open thin tube touched from whichever side the centre is on
 /// (inside or outside), so a lifted tube never drags outside particles in. A rectangle is a thin
 /// plate touched from either side. For a disc or a rectangle, points whose projection falls
-/// outside the face do not touch, and a finite cylinder ends at its end circles (rims and edges
-/// are not modelled).
+/// outside the face do not touch (edges are not modelled); beyond an end of a finite cylinder a
+/// sphere touches the rim circle (nearest point on it).
 BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
   WallHit h;
   switch (w.kind) {
@@ -61,9 +61,23 @@ BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r
     case Kind::Cylinder: {
       const Vec3 d = c - w.point_m;
       const double axial = dot(d, w.normal);
-      if (w.length_m > 0.0 && (axial < 0.0 || axial > w.length_m)) return h;
       const Vec3 radial = d - axial * w.normal;
       const double rho = norm(radial);
+      if (w.length_m > 0.0 && (axial < 0.0 || axial > w.length_m)) {
+        // Beyond an end of a finite tube: contact with the nearest point of its rim circle, so
+        // that a sphere landing on the rim is pushed off it instead of being flung through the
+        // wall when its centre passes the end (the overlap is continuous across the end).
+        if (!(rho > 0.0)) return h;
+        const double a_end = axial < 0.0 ? 0.0 : w.length_m;
+        const Vec3 q = w.point_m + a_end * w.normal + (w.radius_m / rho) * radial;
+        const Vec3 dq = c - q;
+        const double g = norm(dq);
+        if (!(g > 0.0) || g >= r) return h;
+        h.gap_m = g;
+        h.normal = dq / g;
+        h.touching = true;
+        return h;
+      }
       h.gap_m = w.radius_m - rho;
       h.normal = rho > 0.0 ? radial / (-rho) : Vec3{};
       if (w.length_m > 0.0 && h.gap_m < 0.0) {  // outside a finite tube: pushed outwards

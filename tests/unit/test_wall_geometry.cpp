@@ -44,8 +44,17 @@ TEST(WallGeometry, FiniteTubeTouchedFromInsideAndOutside) {
   EXPECT_TRUE(h.touching);
   EXPECT_NEAR(h.gap_m, 0.1, 1e-12);
   EXPECT_NEAR(h.normal.z, -1.0, 1e-15);
-  EXPECT_FALSE(wall_hit(g, {0.8, 0.9, 0.0}, 0.3).touching);  // below its lower end
-  EXPECT_FALSE(wall_hit(g, {0.8, 3.1, 0.0}, 0.3).touching);  // above its upper end
+  EXPECT_FALSE(wall_hit(g, {0.5, 0.9, 0.0}, 0.3).touching);  // below its lower end, 0.51 from the rim
+  EXPECT_FALSE(wall_hit(g, {0.5, 3.1, 0.0}, 0.3).touching);  // above its upper end, off the rim
+  h = wall_hit(g, {1.0, 3.2, 0.0}, 0.3);                      // resting on the upper rim
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.2, 1e-12);
+  EXPECT_NEAR(h.normal.y, 1.0, 1e-15);
+  h = wall_hit(g, {1.0 + 0.3, 1.0 - 0.4, 0.0}, 0.6);         // below the lower rim, 0.5 away on a 3-4-5 line
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.5, 1e-12);
+  EXPECT_NEAR(h.normal.x, 0.6, 1e-12);
+  EXPECT_NEAR(h.normal.y, -0.8, 1e-12);
   g.length_m = 0.0;  // infinite (drum mantle): inside only, as before
   h = wall_hit(g, {0.0, 2.0, -1.1}, 0.3);
   EXPECT_TRUE(h.touching);

@@ -1,0 +1,119 @@
+// `biodem calibrate` (issue 9): the result depends only on the CALIB file and its seed, not on
+// --jobs or MPI, and a killed campaign resumed with --resume ends exactly like an uninterrupted one.
+// Micro campaign (tests/cases/calib_micro): 8 x (1 + 1 generation) evaluations of a 120-bead heap
+// and a 100-bead shear box, ~20-40 s per campaign. Rows are compared without wall_s (a timing).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "test_util.hpp"
+
+using namespace biodem::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kCalib = source_dir() + "/tests/cases/calib_micro/campaign.toml";
+
+/// The file without its last column (wall_s).
+std::string without_wall(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, out;
+  while (std::getline(in, line)) out += line.substr(0, line.rfind(',')) + "\n";
+  return out;
+}
+
+std::size_t lines(const std::string& path) {
+  std::ifstream in(path);
+  std::size_t n = 0;
+  std::string l;
+  while (std::getline(in, l)) ++n;
+  return n;
+}
+
+std::string campaign(const std::string& tag, int jobs) {
+  const std::string d = fresh_dir("calib_" + tag);
+  const auto r = run_command(biodem_exe() + " calibrate " + kCalib + " --out " + d + " --jobs " + std::to_string(jobs));
+  EXPECT_EQ(r.status, 0) << r.output;
+  return d;
+}
+
+}  // namespace
+
+TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
+  const std::string a = campaign("jobs1", 1), b = campaign("jobs2", 2);
+  ASSERT_EQ(lines(a + "/evaluations.csv"), 17u);  // header + 8 x 2 batches
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(b + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(b + "/pareto.csv"));
+  EXPECT_GE(lines(a + "/pareto.csv"), 2u);
+  EXPECT_TRUE(fs::exists(a + "/pareto.png"));
+  EXPECT_TRUE(fs::exists(a + "/pareto.svg"));
+  EXPECT_TRUE(fs::exists(a + "/retainment_ratio_vs_ced_j_m3.png"));
+
+  // Kill a campaign (and its child runs) in the middle of its second batch, once two test runs
+  // of that batch have finished, then resume it: the first batch comes from cache.csv, the
+  // finished runs of the second are re-used, the rest is run.
+  const std::string c = fresh_dir("calib_killed");
+  const std::string script = "setsid " + biodem_exe() + " calibrate " + kCalib + " --out " + c +
+                             " --jobs 2 >/dev/null 2>&1 & pid=$!; "
+                             "for i in $(seq 1 2400); do n=$(cat " + c + "/runs/g1/*/*/out/run.log 2>/dev/null | "
+                             "grep -c ^finished:); [ \"$n\" -ge 2 ] && break; sleep 0.05; done; kill -9 -$pid; "
+                             "wait $pid; true";
+  run_command("bash -c '" + script + "'");
+  const std::size_t cached = lines(c + "/cache.csv") - 1;
+  std::printf("[measured] killed after %zu finished evaluations\n", cached);
+  ASSERT_EQ(cached, 8u);
+  ASSERT_FALSE(fs::exists(c + "/pareto.csv")) << "the campaign finished before it could be killed";
+  const auto r = run_command(biodem_exe() + " calibrate " + kCalib + " --out " + c + " --jobs 2 --resume");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::ifstream log(c + "/campaign.log");
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(std::to_string(cached) + " evaluations cached"), std::string::npos) << text;
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(c + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(c + "/pareto.csv"));
+
+#ifdef BIODEM_HAVE_MPI
+  // The same campaign over 3 MPI ranks on localhost (rank 0 runs NSGA-II, ranks 1-2 the tests).
+  const std::string m = fresh_dir("calib_mpi");
+  const auto rm = run_command("mpirun --oversubscribe --allow-run-as-root -np 3 " + biodem_exe() + " calibrate " +
+                              kCalib + " --out " + m);
+  ASSERT_EQ(rm.status, 0) << rm.output;
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(m + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(m + "/pareto.csv"));
+#endif
+}
+
+// Bad CALIB files: one line naming the key, non-zero exit, before any run (no runs/ folder).
+TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
+  std::ifstream in(kCalib);
+  const std::string good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string d = fresh_dir("calib_bad");
+  fs::create_directories(d);
+  for (const char* f : {"base.toml", "heap.toml", "shear_box.toml"})
+    fs::copy_file(source_dir() + "/tests/cases/calib_micro/" + f, d + "/" + f);
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"pair.bead.bead.sliding_friction", "pair.bead.bead.slding_friction", "unknown parameter path"},
+      {"pair.bead.steel.rolling_friction", "pair.bead.glass.rolling_friction", "no [[pair]] of materials bead and glass"},
+      {"lower = 0.1\nupper = 0.9\nkeys = [\"pair.bead.bead.sliding", "lower = -0.1\nupper = 0.9\nkeys = [\"pair.bead.bead.sliding",
+       "[[parameter]] #1.lower"},
+      {"lower = 0.0\nupper = 80000.0", "lower = -5.0\nupper = 80000.0", "[[parameter]] #3.lower"},
+      {"population = 8", "population = 6", "[campaign].population = 6"},
+      {"response = \"retainment_ratio\"\nvalue = 0.7", "response = \"heap_height_m\"\nvalue = 0.7",
+       "missing target for response \"retainment_ratio\""},
+  };
+  for (const auto& [from, to, expect] : cases) {
+    std::string text = good;
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    const std::string f = d + "/bad.toml";  // next to copies of its cases
+    { std::ofstream(f) << text; }
+    const auto r = run_command(biodem_exe() + " calibrate " + f + " --out " + d + "/out");
+    EXPECT_NE(r.status, 0) << to;
+    EXPECT_NE(r.output.find(expect), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_FALSE(fs::exists(d + "/out/runs")) << to;
+  }
+}
