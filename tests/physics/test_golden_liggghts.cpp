@@ -371,3 +371,66 @@ TEST(GoldenLiggghts, SphereInRotatingCylinderShowsTheRollingReference) {
   EXPECT_LT(w_ref_ride, 0.01 * kOmega);
   EXPECT_LT(w_ride_dev, 0.01 * kOmega);
 }
+
+// Scene 2b: the same finding for a sphere-sphere contact (sjkr_pair_slide.in): a small sphere
+// (d = 2 mm, rho = 1000) held by cohesion (CED = 5e4 J/m3) on a big, nearly immovable one
+// (d = 20 mm, rho = 1e9) slides along it; E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, 3,000 steps of
+// 1e-7 s, frames every 100. Normal motion agrees with biodem (4e-11 m); while sliding (steps
+// 500-1000, where the two normal forces differ by 18-87 %) the
+// reference's friction force is mu (Hertz + damping), without cohesion, as at the wall.
+TEST(GoldenLiggghts, CohesivePairSlidingShowsTheFrictionLimitWithoutCohesion) {
+  const ScopedThreads one(1);
+  const Golden g = read_golden("sjkr_pair_slide.csv");
+  ASSERT_EQ(g.size(), 31u);
+  const Material small{1e7, 0.3, 1000.0}, big{1e7, 0.3, 1e9};
+  const Interaction c{0.5, 0.3, 0.0, 5e4};
+  contact::PairTable t(3);
+  t.set(0, 0, pair_params(small, small, c));
+  t.set(0, 2, pair_params(small, big, c));
+  t.set(2, 2, pair_params(big, big, c));
+  sim::Simulation s({sphere_template(1e-3), sphere_template(1e-2)}, {small.density_kg_m3, 0.0, big.density_kg_m3}, t,
+                    1e-7, {});
+  sim::BodyInit a, b;
+  a.shape = 1;
+  a.material = 2;
+  a.position_m = g.begin()->second.at(1).x;
+  b.shape = 0;
+  b.material = 0;
+  b.position_m = g.begin()->second.at(2).x;
+  b.velocity_m_s = g.begin()->second.at(2).v;
+  s.add_body(a);
+  s.add_body(b);
+  const double r1 = 1e-2, r2 = 1e-3, r_eff = r1 * r2 / (r1 + r2);
+  const double m2 = sphere_mass_kg(r2, 1000.0), m1 = sphere_mass_kg(r1, 1e9), m_eff = m1 * m2 / (m1 + m2);
+  const double y = effective_young_pa(small, big);
+  double e_gap = 0, worst_ref = 0, min_gap = 1e300;
+  for (const auto& [step, atoms] : g) {
+    while (static_cast<long>(s.step_count()) < step) s.step();
+    std::size_t i1 = s.bodies().id[0] == 0 ? 0 : 1, i2 = 1 - i1;
+    const double gap = norm(s.bodies().position_m[i2] - s.bodies().position_m[i1]);
+    e_gap = std::max(e_gap, std::abs(gap - norm(atoms.at(2).x - atoms.at(1).x)));
+    if (step < 500 || step > 1000) continue;
+    // The reference's tangential force on the small sphere, from its frames, against the normal
+    // force from its overlap and normal speed (SPEC 2.1-2.4, pair form).
+    const Frame &p = g.at(step - 100).at(2), &q = g.at(step + 100).at(2), &o = atoms.at(2);
+    const Vec3 d = o.x - atoms.at(1).x;
+    const double dist = norm(d);
+    const Vec3 n = d / dist;
+    const Vec3 acc = (q.v - p.v) / (200 * 1e-7);
+    const double f_t = m2 * norm(acc - dot(acc, n) * n);
+    const double delta = r1 + r2 - dist, v_n = dot(o.v - atoms.at(1).v, n);
+    const double gamma_n = -2 * std::sqrt(5.0 / 6.0) * beta_from_restitution(0.5) *
+                           std::sqrt(2 * y * std::sqrt(r_eff * delta) * m_eff);
+    const double hertz_damping = 4.0 / 3.0 * y * std::sqrt(r_eff) * std::pow(delta, 1.5) - gamma_n * v_n;
+    const double area = std::numbers::pi / 4 * (dist * dist - (r1 - r2) * (r1 - r2)) *
+                        ((r1 + r2) * (r1 + r2) - dist * dist) / (dist * dist);
+    worst_ref = std::max(worst_ref, std::abs(f_t / (0.3 * hertz_damping) - 1));
+    min_gap = std::min(min_gap, std::abs(hertz_damping / (hertz_damping - 5e4 * area)) - 1);
+  }
+  report("golden SJKR pair: centre-distance error (normal motion) [m]", e_gap, 0.0);
+  report("golden SJKR pair: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", worst_ref, 0.0);
+  report("golden SJKR pair: with cohesion the normal force would differ by at least (rel.)", min_gap, 0.0);
+  EXPECT_LT(e_gap, 1e-9);
+  EXPECT_LT(worst_ref, 0.01);
+  EXPECT_GT(min_gap, 0.15);
+}
