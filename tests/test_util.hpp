@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -31,6 +32,12 @@ inline CommandResult run_command(const std::string& cmd) {
 }
 
 inline std::string biodem_exe() { return BIODEM_BINARY; }
+
+/// The whole file as bytes ("" if it cannot be read).
+inline std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
 inline std::string source_dir() { return BIODEM_SOURCE_DIR; }
 
 /// A fresh, empty directory under the build tree's test folder.

@@ -14,10 +14,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 /// Runs `case_file` with the given text replacements; returns the responses by name.
 std::map<std::string, double> run_bulk(const std::string& case_file, const std::string& tag,

@@ -19,10 +19,6 @@ using namespace biodem::testing;
 namespace fs = std::filesystem;
 
 namespace {
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 const std::string kCase = source_dir() + "/tests/cases/checkpoint_tiny.toml";
 /// The GPU engine under test: its kernels on CPU threads by default (CI); BIODEM_TEST_GPU=1
 /// runs the same tests on the CUDA device of a GPU machine.

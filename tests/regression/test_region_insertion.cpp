@@ -15,10 +15,6 @@ using namespace biodem::testing;
 
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 const std::string kBox = source_dir() + "/tests/cases/pour_box_tiny.toml";
 

@@ -14,10 +14,6 @@ using namespace biodem::testing;
 namespace fs = std::filesystem;
 
 namespace {
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 const std::string kCase = source_dir() + "/tests/cases/checkpoint_tiny.toml";
 }  // namespace
 
