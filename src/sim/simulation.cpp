@@ -128,25 +128,9 @@ void Simulation::reorder_spatially() {
   std::vector<std::uint32_t> new_of_old_body(nb), new_of_old_sphere(ns);
   for (std::size_t q = 0; q < nb; ++q) new_of_old_body[key[q].second] = static_cast<std::uint32_t>(q);
 
-  state::BodyStore nbs;
-  state::SphereStore nss;
-  auto perm_b = [&](auto& dst, const auto& src) {
-    dst.resize(nb);
-    for (std::size_t q = 0; q < nb; ++q) dst[q] = src[key[q].second];
-  };
-  perm_b(nbs.position_m, bodies_.position_m);
-  perm_b(nbs.velocity_m_s, bodies_.velocity_m_s);
-  perm_b(nbs.angular_velocity_rad_s, bodies_.angular_velocity_rad_s);
-  perm_b(nbs.angular_momentum_kg_m2_s, bodies_.angular_momentum_kg_m2_s);
-  perm_b(nbs.orientation, bodies_.orientation);
-  perm_b(nbs.mass_kg, bodies_.mass_kg);
-  perm_b(nbs.inertia_kg_m2, bodies_.inertia_kg_m2);
-  perm_b(nbs.shape, bodies_.shape);
-  perm_b(nbs.id, bodies_.id);
-  perm_b(nbs.sphere_count, bodies_.sphere_count);
-  perm_b(nbs.force_n, bodies_.force_n);
-  perm_b(nbs.torque_n_m, bodies_.torque_n_m);
-  nbs.first_sphere.resize(nb);
+  std::vector<std::uint32_t> old_body_of_new(nb);
+  for (std::size_t q = 0; q < nb; ++q) old_body_of_new[q] = key[q].second;
+  state::BodyStore nbs = state::gather(bodies_, old_body_of_new);
   std::vector<std::uint32_t> old_sphere_of_new;
   old_sphere_of_new.reserve(ns);
   for (std::size_t q = 0; q < nb; ++q) {
@@ -157,20 +141,7 @@ void Simulation::reorder_spatially() {
       old_sphere_of_new.push_back(s);
     }
   }
-  auto perm_s = [&](auto& dst, const auto& src) {
-    dst.resize(ns);
-    for (std::size_t q = 0; q < ns; ++q) dst[q] = src[old_sphere_of_new[q]];
-  };
-  perm_s(nss.position_m, spheres_.position_m);
-  perm_s(nss.velocity_m_s, spheres_.velocity_m_s);
-  perm_s(nss.angular_velocity_rad_s, spheres_.angular_velocity_rad_s);
-  perm_s(nss.radius_m, spheres_.radius_m);
-  perm_s(nss.offset_body_m, spheres_.offset_body_m);
-  perm_s(nss.material, spheres_.material);
-  perm_s(nss.body_mass_kg, spheres_.body_mass_kg);
-  perm_s(nss.force_n, spheres_.force_n);
-  perm_s(nss.torque_n_m, spheres_.torque_n_m);
-  nss.body.resize(ns);
+  state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
   for (std::size_t q = 0; q < ns; ++q) nss.body[q] = new_of_old_body[spheres_.body[old_sphere_of_new[q]]];
   WallContacts wc;
   wc.start.assign(ns + 1, 0);
@@ -218,24 +189,7 @@ std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
   }
   const std::size_t removed = nb - keep_body.size();
   if (removed == 0) return 0;
-  state::BodyStore nbs;
-  auto keep_b = [&](auto& dst, const auto& src) {
-    dst.resize(keep_body.size());
-    for (std::size_t q = 0; q < keep_body.size(); ++q) dst[q] = src[keep_body[q]];
-  };
-  keep_b(nbs.position_m, bodies_.position_m);
-  keep_b(nbs.velocity_m_s, bodies_.velocity_m_s);
-  keep_b(nbs.angular_velocity_rad_s, bodies_.angular_velocity_rad_s);
-  keep_b(nbs.angular_momentum_kg_m2_s, bodies_.angular_momentum_kg_m2_s);
-  keep_b(nbs.orientation, bodies_.orientation);
-  keep_b(nbs.mass_kg, bodies_.mass_kg);
-  keep_b(nbs.inertia_kg_m2, bodies_.inertia_kg_m2);
-  keep_b(nbs.shape, bodies_.shape);
-  keep_b(nbs.id, bodies_.id);
-  keep_b(nbs.sphere_count, bodies_.sphere_count);
-  keep_b(nbs.force_n, bodies_.force_n);
-  keep_b(nbs.torque_n_m, bodies_.torque_n_m);
-  nbs.first_sphere.resize(keep_body.size());
+  state::BodyStore nbs = state::gather(bodies_, keep_body);
   for (std::size_t q = 0; q < keep_body.size(); ++q) {
     nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
     const std::uint32_t s0 = bodies_.first_sphere[keep_body[q]];
@@ -245,21 +199,7 @@ std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
     }
   }
   const std::size_t ns_new = old_sphere_of_new.size();
-  state::SphereStore nss;
-  auto keep_s = [&](auto& dst, const auto& src) {
-    dst.resize(ns_new);
-    for (std::size_t q = 0; q < ns_new; ++q) dst[q] = src[old_sphere_of_new[q]];
-  };
-  keep_s(nss.position_m, spheres_.position_m);
-  keep_s(nss.velocity_m_s, spheres_.velocity_m_s);
-  keep_s(nss.angular_velocity_rad_s, spheres_.angular_velocity_rad_s);
-  keep_s(nss.radius_m, spheres_.radius_m);
-  keep_s(nss.offset_body_m, spheres_.offset_body_m);
-  keep_s(nss.material, spheres_.material);
-  keep_s(nss.body_mass_kg, spheres_.body_mass_kg);
-  keep_s(nss.force_n, spheres_.force_n);
-  keep_s(nss.torque_n_m, spheres_.torque_n_m);
-  nss.body.resize(ns_new);
+  state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
   for (std::size_t q = 0; q < keep_body.size(); ++q)
     for (std::uint32_t s = nbs.first_sphere[q]; s < nbs.first_sphere[q] + nbs.sphere_count[q]; ++s)
       nss.body[s] = static_cast<std::uint32_t>(q);

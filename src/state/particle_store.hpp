@@ -46,4 +46,49 @@ struct BodyStore {
   std::size_t size() const { return mass_kg.size(); }
 };
 
+/// The bodies old_of_new[0], old_of_new[1], ... of `b`, in that order (a permutation or a
+/// subset): every per-body field except first_sphere, which the caller renumbers.
+inline BodyStore gather(const BodyStore& b, const std::vector<std::uint32_t>& old_of_new) {
+  BodyStore out;
+  auto take = [&](auto& dst, const auto& src) {
+    dst.resize(old_of_new.size());
+    for (std::size_t q = 0; q < old_of_new.size(); ++q) dst[q] = src[old_of_new[q]];
+  };
+  take(out.position_m, b.position_m);
+  take(out.velocity_m_s, b.velocity_m_s);
+  take(out.angular_velocity_rad_s, b.angular_velocity_rad_s);
+  take(out.angular_momentum_kg_m2_s, b.angular_momentum_kg_m2_s);
+  take(out.orientation, b.orientation);
+  take(out.mass_kg, b.mass_kg);
+  take(out.inertia_kg_m2, b.inertia_kg_m2);
+  take(out.shape, b.shape);
+  take(out.id, b.id);
+  take(out.sphere_count, b.sphere_count);
+  take(out.force_n, b.force_n);
+  take(out.torque_n_m, b.torque_n_m);
+  out.first_sphere.resize(old_of_new.size());
+  return out;
+}
+
+/// The spheres old_of_new[0], ... of `s`: every per-sphere field except body, which the caller
+/// renumbers.
+inline SphereStore gather(const SphereStore& s, const std::vector<std::uint32_t>& old_of_new) {
+  SphereStore out;
+  auto take = [&](auto& dst, const auto& src) {
+    dst.resize(old_of_new.size());
+    for (std::size_t q = 0; q < old_of_new.size(); ++q) dst[q] = src[old_of_new[q]];
+  };
+  take(out.position_m, s.position_m);
+  take(out.velocity_m_s, s.velocity_m_s);
+  take(out.angular_velocity_rad_s, s.angular_velocity_rad_s);
+  take(out.radius_m, s.radius_m);
+  take(out.offset_body_m, s.offset_body_m);
+  take(out.material, s.material);
+  take(out.body_mass_kg, s.body_mass_kg);
+  take(out.force_n, s.force_n);
+  take(out.torque_n_m, s.torque_n_m);
+  out.body.resize(old_of_new.size());
+  return out;
+}
+
 }  // namespace biodem::state
