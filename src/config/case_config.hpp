@@ -18,6 +18,8 @@ enum class Device { Cpu, Gpu, GpuEmulated };
 
 struct RunConfig {
   Device device = Device::Cpu;
+  bool remove_lost_particles = false;   // [run] lost_particles = "remove" (default "stop")
+  std::optional<std::array<double, 3>> bounds_min_m, bounds_max_m;  // explicit scenes: where bodies must stay
   double dt_s = 0.0;
   std::uint64_t seed = 1;
   Vec3d gravity_m_s2{0.0, -9.81, 0.0};

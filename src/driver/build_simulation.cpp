@@ -79,6 +79,23 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
   }
   sim.set_skin(io::resolved_skin_m(c));
   sim.set_wall_rolling_lab(c.contact.wall_rolling_reference == config::WallRollingReference::Lab);
+  {
+    // Where bodies must stay: the drum, or the [run] bounds box of an explicit scene.
+    sim::LostRegion lr;
+    lr.remove = c.run.remove_lost_particles;
+    if (c.drum) {
+      lr.kind = sim::LostRegion::Kind::Drum;
+      lr.radius_m = 0.5 * c.drum->diameter_m;
+      lr.z0_m = 0.0;
+      lr.z1_m = c.drum->width_m;
+      lr.periodic_z = c.drum->axial_boundary == config::AxialBoundary::Periodic;
+    } else if (c.run.bounds_min_m) {
+      lr.kind = sim::LostRegion::Kind::Box;
+      lr.min_m = v3(*c.run.bounds_min_m);
+      lr.max_m = v3(*c.run.bounds_max_m);
+    }
+    sim.set_lost_region(lr);
+  }
   for (const auto& p : c.particles) {
     sim::BodyInit b;
     b.shape = static_cast<std::uint32_t>(p.shape);

@@ -101,6 +101,8 @@ class Runner {
     // stops here with one line.
     if (device_ == config::Device::Gpu) dev_ = gpu::make_device_engine(gpu::Backend::Cuda, sim_);
     if (device_ == config::Device::GpuEmulated) dev_ = gpu::make_device_engine(gpu::Backend::HostThreads, sim_);
+    if (dev_ && cfg_.run.remove_lost_particles)
+      throw Error(cfg_.source_path + ": [run] lost_particles = \"remove\" is not supported by the GPU engine (use --device cpu, or \"stop\")");
     if (dev_ && cfg_.bulk_test)
       throw Error(cfg_.source_path + ": the bulk tests ([heap], [bulk_density], [shear_box]) run on the CPU engine only (--device cpu)");
 #if !BIODEM_HAVE_OPENCV
@@ -209,6 +211,7 @@ void Runner::sample() {
   if (last_sample_step_ == sim_.step_count()) return;  // already sampled at this step
   last_sample_step_ = sim_.step_count();
   sync(false);
+  if (dev_ && device_current_) sim_.check_lost_bodies();  // the GPU engine: checked at every sample ("stop" only)
   const auto& b = sim_.bodies();
   double m = 0.0, xc = 0.0, yc = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {
@@ -239,6 +242,7 @@ void Runner::sample() {
 #endif
   row.kinetic_energy_j = sim_.kinetic_energy_j();
   row.contacts = static_cast<std::int64_t>(sim_.contact_count());
+  row.lost_bodies = static_cast<std::int64_t>(sim_.lost_bodies());
   series_->write(row);
   if (trace_) {
     char buf[512];
@@ -772,6 +776,8 @@ RunSummary Runner::run() {
   const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
   if (!sim_.sinks().empty())
     log_ << "sinks removed " << sim_.removed_bodies() << " bodies, " << sim_.removed_mass_kg() << " kg\n";
+  if (sim_.lost_bodies())
+    log_ << "lost bodies removed (left the drum or the [run] bounds box): " << sim_.lost_bodies() << "\n";
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
        << rate << " sphere-steps/s";
   if (dev_)

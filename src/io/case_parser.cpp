@@ -382,7 +382,8 @@ class CaseParser {
     const toml::table* t = single("run");
     if (!t) fail("[run]: required table is missing (it holds dt_s)");
     Reader r(file_, *t, "[run]", false,
-             {"dt_s", "seed", "gravity_m_s2", "allow_large_dt", "allow_initial_overlap", "skin_m", "device"});
+             {"dt_s", "seed", "gravity_m_s2", "allow_large_dt", "allow_initial_overlap", "skin_m", "device",
+              "lost_particles", "bounds_min_m", "bounds_max_m"});
     auto& run = cfg_.run;
     if (auto dev = r.opt_string("device")) {
       if (*dev == "cpu") run.device = config::Device::Cpu;
@@ -390,6 +391,18 @@ class CaseParser {
       else if (*dev == "gpu-emulated") run.device = config::Device::GpuEmulated;
       else r.fail("device", "must be \"cpu\", \"gpu\" or \"gpu-emulated\"");
     }
+    if (auto lp = r.opt_string("lost_particles")) {
+      if (*lp == "remove") run.remove_lost_particles = true;
+      else if (*lp != "stop") r.fail("lost_particles", "must be \"stop\" (default) or \"remove\"");
+    }
+    run.bounds_min_m = r.opt_vec3("bounds_min_m");
+    run.bounds_max_m = r.opt_vec3("bounds_max_m");
+    if (run.bounds_min_m.has_value() != run.bounds_max_m.has_value())
+      r.fail(run.bounds_min_m ? "bounds_min_m" : "bounds_max_m", "bounds_min_m and bounds_max_m go together");
+    if (run.bounds_min_m)
+      for (int k = 0; k < 3; ++k)
+        if (!((*run.bounds_min_m)[k] < (*run.bounds_max_m)[k]))
+          r.fail("bounds_max_m", "must exceed bounds_min_m on every axis");
     run.dt_s = r.real("dt_s", kPositive);
     run.seed = r.opt_uint("seed", 0).value_or(1);
     if (auto g = r.opt_vec3("gravity_m_s2")) run.gravity_m_s2 = *g;

@@ -239,6 +239,7 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   o.pod<double>(sim.skin_m());
   o.pod<std::uint64_t>(sim.removed_bodies());
   o.pod<double>(sim.removed_mass_kg());
+  o.pod<std::uint64_t>(sim.lost_bodies());
   for (std::size_t k = 0; k < sim.walls().size(); ++k) {  // wall motion schedules (started at run time)
     const auto& w = sim.walls()[k];
     o.pod(sim.wall_initial_point_m(k));
@@ -333,6 +334,7 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   const auto removed = in.pod<std::uint64_t>();
   const double removed_mass = in.pod<double>();
   sim.set_removed(removed, removed_mass);
+  sim.set_lost_bodies(in.pod<std::uint64_t>());
   struct Schedule {
     Vec3 p, v;
     double t0, t1;

@@ -13,7 +13,7 @@
 
 namespace biodem::io {
 
-inline constexpr std::uint32_t kCheckpointVersion = 3;  // 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies
+inline constexpr std::uint32_t kCheckpointVersion = 4;  // 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies; 4: lost bodies
 
 /// Where the run driver was when the checkpoint was taken.
 struct RunProgress {

@@ -205,6 +205,8 @@ void SeriesWriter::write(const SeriesRow& r) {
        << csv_number(r.alpha_deg) << ',' << opt(r.surface_r2) << ',' << opt(r.surface_angle_deg)
        << ',' << opt(r.kinetic_energy_j) << ',';
   if (r.contacts) out_ << *r.contacts;
+  out_ << ',';
+  if (r.lost_bodies) out_ << *r.lost_bodies;
   out_ << '\n';
   if (++unflushed_ >= 50) flush();
 }

@@ -1,6 +1,6 @@
 // series.csv: the drum time series shared by `biodem run`, `biodem video` and `biodem analyze`
 // (SPEC 11). Header row first, one row per sample, comma-separated, columns
-//     time_s,revolution,alpha_deg,surface_r2,surface_angle_deg,kinetic_energy_j,contacts
+//     time_s,revolution,alpha_deg,surface_r2,surface_angle_deg,kinetic_energy_j,contacts,lost_bodies
 // time_s, revolution and alpha_deg are required; the others may be absent or have empty cells.
 //
 // Reading rules (docs/analysis.md):
@@ -26,7 +26,7 @@
 namespace biodem::io {
 
 inline constexpr const char* kSeriesHeader =
-    "time_s,revolution,alpha_deg,surface_r2,surface_angle_deg,kinetic_energy_j,contacts";
+    "time_s,revolution,alpha_deg,surface_r2,surface_angle_deg,kinetic_energy_j,contacts,lost_bodies";
 
 struct SeriesFile {
   analysis::Series series;
@@ -50,6 +50,7 @@ struct SeriesRow {
   std::optional<double> surface_angle_deg;
   std::optional<double> kinetic_energy_j;
   std::optional<std::int64_t> contacts;
+  std::optional<std::int64_t> lost_bodies;  // bodies removed so far for leaving the drum (simulation)
 };
 
 /// Appends rows to a series.csv. `path` is the file, or an existing directory in which

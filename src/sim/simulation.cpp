@@ -1,6 +1,7 @@
 #include "sim/simulation.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 
 #include "core/error.hpp"
@@ -173,6 +174,37 @@ void Simulation::apply_sinks() {
         break;
       }
   if (any) remove_bodies(flag);
+}
+
+void Simulation::check_lost_bodies() {
+  if (lost_region_.kind == LostRegion::Kind::None) return;
+  const LostRegion& r = lost_region_;
+  const std::size_t nb = bodies_.size();
+  std::vector<std::uint8_t> flag(nb, 0);
+  std::size_t count = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Vec3 x = bodies_.position_m[b];
+    const double rb = templates_[bodies_.shape[b]].bounding_radius_m;
+    bool lost = !(x.x == x.x && x.y == x.y && x.z == x.z);
+    if (r.kind == LostRegion::Kind::Drum) {
+      lost = lost || x.x * x.x + x.y * x.y > (r.radius_m + rb) * (r.radius_m + rb);
+      if (!r.periodic_z) lost = lost || x.z < r.z0_m - rb || x.z > r.z1_m + rb;
+    } else {
+      for (int k = 0; k < 3; ++k) lost = lost || x[k] < r.min_m[k] || x[k] > r.max_m[k];
+    }
+    if (!lost) continue;
+    if (!r.remove) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "body %u was lost at t = %.6g s: its centre (%.6g, %.6g, %.6g) m is outside the %s",
+                    bodies_.id[b], time_s_, x.x, x.y, x.z, r.kind == LostRegion::Kind::Drum ? "drum" : "[run] bounds box");
+      throw Error(std::string(buf) + " (too large a time step, or an opening in the walls?); [run] lost_particles = \"remove\" removes such bodies instead");
+    }
+    flag[b] = 1;
+    ++count;
+  }
+  if (count == 0) return;
+  lost_bodies_ += count;
+  remove_bodies(flag);
 }
 
 std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
@@ -350,12 +382,13 @@ void Simulation::step() {
   apply_sinks();
   update_spheres_from_bodies();
   if (list_.needs_rebuild(spheres_)) {
+    check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
     rebuild_neighbors();
   }
   compute_forces();
   reduce_to_bodies();
-  const std::size_t nb_kept = bodies_.size();  // a sink may have removed bodies
+  const std::size_t nb_kept = bodies_.size();  // a sink or the lost-body check may have removed bodies
 #pragma omp parallel for proc_bind(close) schedule(static) if (nb_kept >= kParallelThreshold)
   for (std::size_t b = 0; b < nb_kept; ++b) {
     bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];

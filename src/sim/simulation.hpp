@@ -65,6 +65,18 @@ struct WallContacts {
   std::vector<std::uint8_t> touching;
 };
 
+/// Where bodies must stay (issue 10, "lost particles"): inside the drum (centre no farther from
+/// the axis than the mantle radius plus the body's bounding radius, and, with end plates,
+/// between them within that radius) or inside an explicit box. Checked at every neighbour build.
+struct LostRegion {
+  enum class Kind { None, Drum, Box };
+  Kind kind = Kind::None;
+  double radius_m = 0.0, z0_m = 0.0, z1_m = 0.0;  // drum: axis z through the origin
+  bool periodic_z = false;
+  Vec3 min_m, max_m;  // box
+  bool remove = false;  // false: a lost body stops the run with an error; true: it is removed and counted
+};
+
 struct BodyInit {
   std::uint32_t shape = 0;
   std::uint16_t material = 0;
@@ -83,6 +95,14 @@ class Simulation {
   std::uint32_t add_wall(const WallSpec& w);
   std::uint32_t add_body(const BodyInit& b);
   void add_sink(const SinkSpec& s) { sinks_.push_back(s); }
+  void set_lost_region(const LostRegion& r) { lost_region_ = r; }
+  const LostRegion& lost_region() const { return lost_region_; }
+  /// Bodies removed because they left the LostRegion (with lost_particles = "remove").
+  std::uint64_t lost_bodies() const { return lost_bodies_; }
+  void set_lost_bodies(std::uint64_t n) { lost_bodies_ = n; }
+  /// Checks every body against the LostRegion: throws biodem::Error naming the first lost body
+  /// (id, position, time), or removes the lost ones when the region says so.
+  void check_lost_bodies();
   /// Starts a prescribed translation of wall k now (it rests before): velocity v from t0 to t1.
   void start_wall_translation(std::size_t k, const Vec3& v, double t0, double t1) {
     set_wall_translation(k, walls_[k].geometry.point_m, v, t0, t1);
@@ -207,6 +227,8 @@ class Simulation {
   WallContacts wall_contacts_;
   std::vector<Vec3> wall_initial_point_m_;  // point_m of each wall at t = 0 (translating walls)
   std::vector<SinkSpec> sinks_;
+  LostRegion lost_region_;
+  std::uint64_t lost_bodies_ = 0;
   std::uint64_t removed_bodies_ = 0;
   double removed_mass_kg_ = 0.0;
   bool list_valid_ = false;

@@ -202,7 +202,7 @@ TEST(AnalysisCli, VideoWritesSeriesAndSkipsCorruptFrames) {
   const std::vector<double> expected_time{0.0, 0.02, 0.06, 0.08, 0.10, 0.12};
   for (std::size_t k = 0; k < tilt.size(); ++k) {
     const auto& row = rows[k + 1];
-    ASSERT_EQ(row.size(), 7u);
+    ASSERT_EQ(row.size(), 8u);  // ... contacts, lost_bodies (empty for a video)
     EXPECT_NEAR(std::stod(row[0]), expected_time[k], 1e-12);
     EXPECT_NEAR(std::stod(row[1]), 0.5 * expected_time[k] / 60.0, 1e-12);
     EXPECT_NEAR(std::stod(row[2]), 90.0 + tilt[k], 0.5) << "frame " << k;

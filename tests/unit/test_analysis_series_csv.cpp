@@ -53,7 +53,7 @@ TEST(AnalysisSeriesCsv, WriterAndReaderRoundTrip) {
   const auto lines = test::read_lines(dir / "series.csv");
   ASSERT_EQ(lines.size(), 121u);
   EXPECT_EQ(lines[0], io::kSeriesHeader);
-  EXPECT_EQ(test::split_csv(lines[2]).size(), 7u);
+  EXPECT_EQ(test::split_csv(lines[2]).size(), 8u);
   EXPECT_EQ(test::split_csv(lines[2])[3], "");  // missing r^2 is an empty cell
 
   const auto f = io::read_series_csv(dir / "series.csv");
@@ -72,7 +72,7 @@ TEST(AnalysisSeriesCsv, WriterAndReaderRoundTrip) {
   // Appending keeps one header.
   {
     io::SeriesWriter w(dir / "series.csv", true);
-    w.write(io::SeriesRow{2.4, 0.02, 41.0, {}, {}, {}, {}});
+    w.write(io::SeriesRow{2.4, 0.02, 41.0, {}, {}, {}, {}, {}});
   }
   EXPECT_EQ(test::read_lines(dir / "series.csv").size(), 122u);
   EXPECT_EQ(io::read_series_csv(dir / "series.csv").series.size(), 121u);

@@ -1,0 +1,140 @@
+// Lost particles (issue 10 item 2): a body that leaves the drum or the [run] bounds box stops the
+// run with one line naming its id, position and time (default, as LIGGGHTS' "lost atoms"), or,
+// with [run] lost_particles = "remove", is removed and counted (run.log, series.csv lost_bodies)
+// while alpha goes on over the bodies that stay. Before this, the body was silently averaged
+// into alpha and made the cell grid grow.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.hpp"
+#include "physics/physics_support.hpp"
+#include "test_util.hpp"
+
+using namespace biodem;
+using namespace biodem::testing;
+
+namespace {
+// Two beads at rest on a plate inside a 20 mm bounds box, and a third one shot sideways at 2 m/s:
+// it leaves the box after about 5 ms.
+std::string scene(const std::string& extra_run) {
+  return R"([run]
+dt_s = 1.0e-5
+)" + extra_run + R"(
+bounds_min_m = [-0.01, -0.002, -0.01]
+bounds_max_m = [0.01, 0.02, 0.01]
+
+[[material]]
+name = "bead"
+density_kg_m3 = 2500.0
+young_pa = 5.0e6
+poisson = 0.3
+
+[[pair]]
+materials = ["bead", "bead"]
+restitution = 0.5
+sliding_friction = 0.3
+
+[[shape]]
+name = "bead"
+kind = "sphere"
+diameter_m = 1.0e-3
+
+[[wall]]
+kind = "plane"
+point_m = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+material = "bead"
+
+[[particle]]
+shape = "bead"
+material = "bead"
+position_m = [0.0, 0.0005, 0.0]
+
+[[particle]]
+shape = "bead"
+material = "bead"
+position_m = [0.003, 0.0005, 0.0]
+
+[[particle]]
+shape = "bead"
+material = "bead"
+position_m = [-0.003, 0.004, 0.0]
+velocity_m_s = [-2.0, 0.0, 0.0]
+
+[[phase]]
+name = "fly"
+duration_s = 0.02
+
+[output]
+sample_hz = 1000.0
+)";
+}
+
+std::string write_case(const std::string& name, const std::string& text) {
+  const std::string dir = fresh_dir(name);
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/case.toml") << text;
+  return dir;
+}
+}  // namespace
+
+TEST(LostParticles, DefaultStopsNamingTheBody) {
+  const std::string d = write_case("lost_stop", scene(""));
+  auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("body 2 was lost at t = "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[run] bounds box"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
+}
+
+TEST(LostParticles, RemoveCountsThemAndKeepsTheOthers) {
+  const std::string d = write_case("lost_remove", scene("lost_particles = \"remove\""));
+  auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto s = read_csv(d + "/out/series.csv");
+  const auto lost = to_numbers(s.at("lost_bodies"));
+  ASSERT_FALSE(lost.empty());
+  EXPECT_EQ(lost.front(), 0.0);
+  EXPECT_EQ(lost.back(), 1.0);
+  EXPECT_NE(slurp(d + "/out/run.log").find("lost bodies removed (left the drum or the [run] bounds box): 1"),
+            std::string::npos);
+  const auto trace_ok = run_command("grep -c '<Piece NumberOfPoints=\"2\"' " + d + "/out/snapshots/spheres_000001.vtu");
+  EXPECT_EQ(trace_ok.output.substr(0, 1), "1") << "the last snapshot holds the two beads that stayed";
+}
+
+TEST(LostParticles, BadKeysAreOneLineErrors) {
+  const std::string d = write_case("lost_bad", scene("lost_particles = \"ignore\""));
+  auto r = run_command(biodem_exe() + " check " + d + "/case.toml");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("[run].lost_particles"), std::string::npos) << r.output;
+}
+
+// The drum region: a body outside the mantle by more than its radius is lost; one touching the
+// mantle is not.
+TEST(LostParticles, DrumRegionOnTheEngine) {
+  phys::SimSetup su;
+  su.particle = {5e6, 0.3, 2500.0};
+  su.wall = {5e6, 0.3, 0.0};
+  su.templates = {phys::sphere_template(0.5e-3)};
+  su.dt_s = 1e-5;
+  sim::Simulation s = phys::make_simulation(su);
+  sim::LostRegion lr;
+  lr.kind = sim::LostRegion::Kind::Drum;
+  lr.radius_m = 0.01;
+  lr.z0_m = 0.0;
+  lr.z1_m = 0.005;
+  s.set_lost_region(lr);
+  phys::add_particle(s, 0, {0.0, -0.0104, 0.0025});  // 0.4 mm past the mantle: within its radius
+  phys::add_particle(s, 0, {0.0, 0.0, 0.0025});
+  s.check_lost_bodies();
+  phys::add_particle(s, 0, {0.0, 0.0, 0.0062});  // 1.2 mm beyond the end plate at z = 5 mm
+  try {
+    s.check_lost_bodies();
+    FAIL() << "a body beyond the end plate must be lost";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("body 2 was lost"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("drum"), std::string::npos) << e.what();
+  }
+}
