@@ -34,12 +34,16 @@ T* raw(typename System::template vector<T>& v) {
 
 template <class D, class H>
 void to_device(D& d, const H& h) {
+  if (h.empty()) {  // Thrust would take &*begin() of an empty range (a null reference)
+    d.clear();
+    return;
+  }
   d.assign(h.begin(), h.end());
 }
 template <class H, class D>
 void to_host(H& h, const D& d) {
   h.resize(d.size());
-  thrust::copy(d.begin(), d.end(), h.begin());
+  if (!d.empty()) thrust::copy(d.begin(), d.end(), h.begin());
 }
 
 /// Most walls a sphere is tested against each step (the drum has three).
