@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "core/error.hpp"
 #include "fuzz/fuzz_scene.hpp"
 #include "io/checkpoint.hpp"
@@ -32,7 +34,11 @@ std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edi
   edit(s);
   io::RunProgress rp;
   rp.pvd_spheres = {{0.0, "spheres_0.vtu"}};
-  const std::string path = (std::filesystem::temp_directory_path() / "biodem_corrupt_test.ckpt").string();
+  // One file per process: ctest runs the tests of this file as parallel processes, and a shared
+  // name let one test remove the file another was reading (a CI failure).
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("biodem_corrupt_test_" + std::to_string(static_cast<long>(::getpid())) + ".ckpt"))
+                               .string();
   io::save_checkpoint(path, s, rp);
   auto bytes = read_all(path);
   std::filesystem::remove(path);
