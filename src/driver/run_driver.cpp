@@ -115,8 +115,10 @@ class Runner {
 
  private:
   void write_log_header();
-  void insert_all();
-  void insert_into_region();
+  /// Insertion in waves into the drum or a region, from the start or, after --resume, from the
+  /// checkpoint's insertion state; then the state after insertion is made current and sampled.
+  void insert();
+  void finish_insertion();
   void write_responses();
   void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
   void frame();
@@ -166,6 +168,7 @@ class Runner {
   bool synced_history_ = false;
   bool device_current_ = false;  // the device holds the run's state (host may lag behind)
   bool last_settled_ = false;
+  io::InsertionProgress insertion_;  // while inserting: what a checkpoint must carry
 };
 
 void Runner::advance() {
@@ -335,7 +338,7 @@ void Runner::after_step() {
   if (n % sample_every_ == 0) sample();
   if (snapshot_every_ && n % snapshot_every_ == 0) snapshot();
   if (frame_every_ && n % frame_every_ == 0) frame();
-  if (checkpoint_every_ && n % checkpoint_every_ == 0 && current_phase_ != "insert") checkpoint();
+  if (checkpoint_every_ && n % checkpoint_every_ == 0) checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
   if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
   if (signal_at_step() && n == signal_at_step()) std::raise(SIGTERM);
@@ -347,12 +350,9 @@ void Runner::stop_on_signal() {
   const char* name = sig == SIGINT ? "SIGINT" : (sig == SIGTERM ? "SIGTERM" : "a signal");
   std::ostringstream msg;
   msg << "interrupted by " << name << " at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")";
-  if (current_phase_ == "insert") {
-    msg << " while inserting particles: no checkpoint yet, the run must start again";
-  } else {
-    checkpoint();
-    msg << ": checkpoint written to " << opt_.out_dir << "/checkpoint.bin; continue with --resume";
-  }
+  if (insertion_.active) msg << " while inserting particles (" << insertion_.placed << " placed)";
+  checkpoint();
+  msg << ": checkpoint written to " << opt_.out_dir << "/checkpoint.bin; continue with --resume";
   log_ << msg.str() << "\n";
   log_.flush();
   throw Interrupted(sig, msg.str());
@@ -414,6 +414,10 @@ void Runner::checkpoint() {
   rp.trace_bytes = trace_ ? fs::file_size(opt_.out_dir + "/trace.csv") : 0;
   rp.pvd_spheres = pvd_->entries();
   rp.pvd_bodies = pvd_bodies_->entries();
+  rp.last_sample_step = last_sample_step_;
+  rp.last_snapshot_step = last_snapshot_step_;
+  rp.last_settled = last_settled_;
+  rp.insertion = insertion_;
   // frame index is implied by the step count
   io::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
   fsync_path(opt_.out_dir);
@@ -436,119 +440,142 @@ void Runner::resume() {
   truncate_to_checkpoint(opt_.out_dir + "/series.csv", resumed_.series_bytes);
   if (cfg_.output.trace) truncate_to_checkpoint(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
   resumed_run_ = true;
-  // A checkpoint is taken after the step's sample and snapshot: do not repeat them.
-  last_sample_step_ = sim_.step_count();
-  last_snapshot_step_ = snapshot_every_ && sim_.step_count() % snapshot_every_ == 0 ? sim_.step_count()
-                                                                                      : last_snapshot_step_;
-}
-
-void Runner::insert_all() {
-  if (cfg_.insertion && cfg_.insertion->region != config::Insertion::Region::Drum) return insert_into_region();
-  if (!built_.drum || !cfg_.insertion || built_.populations.empty()) return;
-  const auto& ins = *cfg_.insertion;
-  const std::uint64_t count = io::implied_particle_count(cfg_);
-  std::mt19937_64 rng(cfg_.run.seed);
-  const auto todo = scenario::plan_population(count, built_.population_volume_fraction,
-                                              built_.population_particle_volume_m3, built_.populations, rng);
-  scenario::CylinderRegion region;
-  region.radius_m = built_.drum->radius_m();
-  region.z_min_m = 0.0;
-  region.z_max_m = built_.drum->width_m;
-  region.periodic_z = built_.drum->periodic_axis;
-  const auto& gv = cfg_.run.gravity_m_s2;
-  const double g = std::max(1e-6, std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]));
-  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * built_.drum->diameter_m / g));
-  const std::uint64_t fall_steps = std::max<std::uint64_t>(1, steps_for(fall_s, cfg_.run.dt_s));
-  std::size_t next = 0;
-  int waves = 0, empty_waves = 0;
-  while (next < todo.size()) {
-    const std::size_t before = next;
-    sync(true);  // GPU engine: the host inserts into the current state, contact history included
-    next = scenario::insert_wave(sim_, region, todo, next, ins.max_attempts_per_particle, rng);
-    ++waves;
-    log_ << "insertion wave " << waves << " at t = " << sim_.time_s() << " s: " << (next - before)
-         << " particles (total " << next << " of " << todo.size() << ")\n";
-    log_.flush();
-    if (next == before) {
-      if (++empty_waves >= 3)
-        throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(next) +
-                    " particles could be inserted into the drum (three insertion waves in a row placed none)");
-    } else {
-      empty_waves = 0;
-    }
-    if (next < todo.size()) {
-      current_phase_ = "insert";
-      if (dev_) {
-        dev_->upload();
-        device_current_ = true;
-        synced_step_ = ~std::uint64_t{0};
-      }
-      for (std::uint64_t k = 0; k < fall_steps; ++k) {
-        advance();
-        after_step();
-      }
-    }
+  if (resumed_.version >= 5) {
+    last_sample_step_ = resumed_.last_sample_step;
+    last_snapshot_step_ = resumed_.last_snapshot_step;
+    last_settled_ = resumed_.last_settled;
+    insertion_ = resumed_.insertion;
+  } else {
+    // Version 4 (never written during insertion): a checkpoint is taken after the step's sample
+    // and snapshot: do not repeat them.
+    last_sample_step_ = sim_.step_count();
+    last_snapshot_step_ = snapshot_every_ && sim_.step_count() % snapshot_every_ == 0 ? sim_.step_count()
+                                                                                        : last_snapshot_step_;
   }
 }
 
-// Insertion into a box or cylinder region (issue 9): poured in waves from the region (each wave
-// fills it, then the particles fall for wave_fall_s, default the free fall over the region's
-// height), or packed in one wave; the same error rules as the drum.
-void Runner::insert_into_region() {
+// Insertion in waves (SPEC 5; regions: issue 9): each wave places what fits into the drum or
+// the region, then the particles fall for wave_fall_s (default: the free fall over the drum
+// diameter, the box diagonal or the cylinder height) before the next wave; mode = "pack" places
+// all in one wave. Three waves in a row that place nothing stop the run. Checkpoints may be taken
+// during the falls: insertion_ holds what a resumed run needs to go on (issue 10, item 5).
+void Runner::insert() {
+  if (!cfg_.insertion || built_.populations.empty() ||
+      (cfg_.insertion->region == config::Insertion::Region::Drum && !built_.drum)) {
+    insertion_ = io::InsertionProgress{};  // nothing to insert
+    return;
+  }
   const auto& ins = *cfg_.insertion;
+  const bool drum = ins.region == config::Insertion::Region::Drum;
   const std::uint64_t count = io::implied_particle_count(cfg_);
   std::mt19937_64 rng(cfg_.run.seed);
+  // The order of the bodies: drawn from the seed again on resume (the generator then continues
+  // from the checkpoint's state).
   const auto todo = scenario::plan_population(count, built_.population_volume_fraction,
                                               built_.population_particle_volume_m3, built_.populations, rng);
-  scenario::Region region;
   const auto v3 = [](const config::Vec3d& a) { return Vec3{a[0], a[1], a[2]}; };
-  double height = 0.0;
-  if (ins.region == config::Insertion::Region::Box) {
+  scenario::CylinderRegion drum_region;
+  scenario::Region region;
+  double fall_height_m = 0.0;
+  if (drum) {
+    drum_region.radius_m = built_.drum->radius_m();
+    drum_region.z_min_m = 0.0;
+    drum_region.z_max_m = built_.drum->width_m;
+    drum_region.periodic_z = built_.drum->periodic_axis;
+    fall_height_m = built_.drum->diameter_m;
+  } else if (ins.region == config::Insertion::Region::Box) {
     region.kind = scenario::Region::Kind::Box;
     region.min_m = v3(ins.region_min_m);
     region.max_m = v3(ins.region_max_m);
-    height = norm(region.max_m - region.min_m);
+    fall_height_m = norm(region.max_m - region.min_m);
   } else {
     region.kind = scenario::Region::Kind::Cylinder;
     region.base_m = v3(ins.region_base_m);
     region.axis = normalized(v3(ins.region_axis));
     region.radius_m = ins.region_radius_m;
     region.height_m = ins.region_height_m;
-    height = ins.region_height_m;
+    fall_height_m = ins.region_height_m;
   }
+  const std::string into = drum ? "into the drum" : "into the region";
   const auto& gv = cfg_.run.gravity_m_s2;
   const double g = std::max(1e-6, std::sqrt(gv[0] * gv[0] + gv[1] * gv[1] + gv[2] * gv[2]));
-  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * height / g));
+  const double fall_s = ins.wave_fall_s.value_or(std::sqrt(2.0 * fall_height_m / g));
   const std::uint64_t fall_steps = std::max<std::uint64_t>(1, steps_for(fall_s, cfg_.run.dt_s));
-  const bool pack = ins.mode == config::Insertion::Mode::Pack;
-  std::size_t next = 0;
-  int waves = 0, empty_waves = 0;
-  while (next < todo.size()) {
-    const std::size_t before = next;
-    next = scenario::insert_wave(sim_, region, todo, next, ins.max_attempts_per_particle, rng);
-    ++waves;
-    log_ << "insertion wave " << waves << " at t = " << sim_.time_s() << " s: " << (next - before)
-         << " particles (total " << next << " of " << todo.size() << ")\n";
-    log_.flush();
-    if (pack && next < todo.size())
-      throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(next) +
-                  " particles could be packed into the region (mode = \"pack\" places them in one wave; use " +
-                  "\"pour\" or a larger region)");
-    if (next == before) {
-      if (++empty_waves >= 3)
-        throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(next) +
-                    " particles could be inserted into the region (three insertion waves in a row placed none)");
-    } else {
-      empty_waves = 0;
-    }
-    if (next < todo.size()) {
-      current_phase_ = "insert";
-      for (std::uint64_t k = 0; k < fall_steps; ++k) {
-        sim_.step();
+  const bool pack = !drum && ins.mode == config::Insertion::Mode::Pack;
+
+  bool falling = false;  // a resumed run may be in the middle of a fall
+  if (resumed_run_ && insertion_.active) {
+    if (insertion_.placed > todo.size() || insertion_.fall_step > fall_steps)
+      throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin: the insertion state does not match this case");
+    falling = true;
+    log_ << "insertion resumes at t = " << sim_.time_s() << " s after wave " << insertion_.waves << " ("
+         << insertion_.placed << " of " << todo.size() << " particles placed)\n";
+  } else {
+    insertion_ = io::InsertionProgress{};
+    insertion_.active = true;
+    insertion_.rng = rng;
+  }
+  current_phase_ = "insert";
+  for (;;) {
+    if (falling) {
+      while (insertion_.fall_step < fall_steps) {
+        advance();
+        ++insertion_.fall_step;
         after_step();
       }
+      falling = false;
+    }
+    if (insertion_.placed >= todo.size()) break;
+    const std::size_t before = insertion_.placed;
+    sync(true);  // GPU engine: the host inserts into the current state, contact history included
+    insertion_.placed =
+        drum ? scenario::insert_wave(sim_, drum_region, todo, before, ins.max_attempts_per_particle, insertion_.rng)
+             : scenario::insert_wave(sim_, region, todo, before, ins.max_attempts_per_particle, insertion_.rng);
+    const std::size_t placed = insertion_.placed;
+    ++insertion_.waves;
+    log_ << "insertion wave " << insertion_.waves << " at t = " << sim_.time_s() << " s: " << (placed - before)
+         << " particles (total " << placed << " of " << todo.size() << ")\n";
+    log_.flush();
+    if (pack && placed < todo.size())
+      throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(placed) +
+                  " particles could be packed into the region (mode = \"pack\" places them in one wave; use " +
+                  "\"pour\" or a larger region)");
+    if (placed == before) {
+      if (++insertion_.empty_waves >= 3)
+        throw Error("[insertion] count = " + std::to_string(todo.size()) + ": only " + std::to_string(placed) +
+                    " particles could be inserted " + into + " (three insertion waves in a row placed none)");
+    } else {
+      insertion_.empty_waves = 0;
+    }
+    if (placed < todo.size()) {
+      if (dev_) {
+        dev_->upload();
+        device_current_ = true;
+        synced_step_ = ~std::uint64_t{0};
+      }
+      insertion_.fall_step = 0;
+      falling = true;
     }
   }
+  insertion_ = io::InsertionProgress{};  // done: later checkpoints carry no insertion state
+}
+
+void Runner::finish_insertion() {
+  if (dev_) {
+    // Forces of the inserted state on the device (contact history kept), then the host made
+    // current for the first sample, snapshot and checkpoint.
+    dev_->upload();
+    device_current_ = true;
+    synced_step_ = ~std::uint64_t{0};
+    sync(true);
+  } else {
+    sim_.refresh();
+  }
+  log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
+  total_steps_estimate_ += sim_.step_count();
+  sample();
+  snapshot();
+  if (checkpoint_every_) checkpoint();  // resumable from the end of insertion on
 }
 
 // Responses of a bulk test (SPEC 7, 11), measured on the final state: docs/calibration.md.
@@ -632,6 +659,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
     log_ << "wall " << *p.move_wall + 1 << " moves at (" << p.move_velocity_m_s.x << ", " << p.move_velocity_m_s.y
          << ", " << p.move_velocity_m_s.z << ") m/s until t = " << t_end << " s\n";
   }
+  log_.flush();  // a run killed during the phase still says which phase it was in
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   while (!settled && k < p.max_steps) {
@@ -721,7 +749,7 @@ RunSummary Runner::run() {
     phase_index_ = first_phase;
     phase_step_ = first_step;
     settle_counter_ = first_below;
-    total_steps_estimate_ += sim_.step_count();
+    if (!insertion_.active) total_steps_estimate_ += sim_.step_count();  // else: at the end of insertion
   } else {
     log_.open(opt_.out_dir + "/run.log", std::ios::trunc);
     write_log_header();
@@ -732,22 +760,10 @@ RunSummary Runner::run() {
     }
     pvd_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
     pvd_bodies_ = std::make_unique<io::PvdCollection>(opt_.out_dir + "/bodies.pvd");
-    insert_all();
-    if (dev_) {
-      // Forces of the inserted state on the device (contact history kept), then the host made
-      // current for the first sample, snapshot and checkpoint.
-      dev_->upload();
-      device_current_ = true;
-      synced_step_ = ~std::uint64_t{0};
-      sync(true);
-    } else {
-      sim_.refresh();
-    }
-    log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
-    total_steps_estimate_ += sim_.step_count();
-    sample();
-    snapshot();
-    if (checkpoint_every_) checkpoint();  // resumable from the end of insertion on
+  }
+  if (!opt_.resume || insertion_.active) {  // a fresh run, or one killed while inserting
+    insert();
+    finish_insertion();
   }
   const std::uint64_t steps_at_start = sim_.step_count();
   for (std::size_t i = first_phase; i < phases.size(); ++i) {

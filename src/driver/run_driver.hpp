@@ -25,8 +25,8 @@ struct RunSummary {
 };
 
 /// Thrown by run_case when SIGINT or SIGTERM stopped the run: the current step was finished and
-/// (unless the run was still inserting particles) a checkpoint written, so `--resume` continues
-/// bit for bit. `biodem run` prints `what()` and exits with 128 + signal (130 SIGINT, 143 SIGTERM).
+/// a checkpoint written (also while particles are being inserted), so `--resume` continues bit
+/// for bit. `biodem run` prints `what()` and exits with 128 + signal (130 SIGINT, 143 SIGTERM).
 struct Interrupted : std::runtime_error {
   Interrupted(int signal_number, const std::string& what) : std::runtime_error(what), signal(signal_number) {}
   int signal;

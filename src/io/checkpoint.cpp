@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <type_traits>
 
 #include "core/error.hpp"
@@ -247,6 +248,25 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
     o.pod(w.move_start_s);
     o.pod(w.move_end_s);
   }
+  // Version 5: the contact count of the last force evaluation (a sample taken right after a
+  // resume reports it), where the outputs and the insertion were.
+  o.pod<std::uint64_t>(sim.contact_count());
+  o.pod(rp.last_sample_step);
+  o.pod(rp.last_snapshot_step);
+  o.pod<std::uint8_t>(rp.last_settled ? 1 : 0);
+  const auto& ins = rp.insertion;
+  o.pod<std::uint8_t>(ins.active ? 1 : 0);
+  o.pod(ins.placed);
+  o.pod(ins.waves);
+  o.pod(ins.empty_waves);
+  o.pod(ins.fall_step);
+  std::string rng_text;
+  if (ins.active) {
+    std::ostringstream t;
+    t << ins.rng;  // the engine's textual state ([rand.req.eng]): restores the same sequence
+    rng_text = t.str();
+  }
+  o.str(rng_text);
 
   const auto& payload = o.bytes();
   const std::uint64_t sum = fnv1a(payload.data(), payload.size());
@@ -288,15 +308,16 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   std::uint64_t size, sum;
   std::memcpy(&version, all.data() + sizeof kMagic, sizeof version);
   std::memcpy(&size, all.data() + sizeof kMagic + sizeof version, sizeof size);
-  if (version != kCheckpointVersion)
-    throw Error(path + ": checkpoint format version " + std::to_string(version) + ", this biodem reads version " +
-                std::to_string(kCheckpointVersion));
+  if (version < kOldestReadableCheckpointVersion || version > kCheckpointVersion)
+    throw Error(path + ": checkpoint format version " + std::to_string(version) + ", this biodem reads versions " +
+                std::to_string(kOldestReadableCheckpointVersion) + " to " + std::to_string(kCheckpointVersion));
   if (all.size() != head + size + sizeof sum) throw Error(path + ": truncated checkpoint");
   std::memcpy(&sum, all.data() + head + size, sizeof sum);
   if (fnv1a(all.data() + head, size) != sum) throw Error(path + ": checkpoint checksum mismatch (corrupt file)");
 
   In in(all.data() + head, size, path);
   RunProgress rp;
+  rp.version = version;
   rp.case_hash = in.pod<std::uint64_t>();
   rp.phase_index = in.pod<std::uint64_t>();
   rp.phase_step = in.pod<std::uint64_t>();
@@ -348,6 +369,25 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
     q.t1 = in.pod<double>();
     schedules.push_back(q);
   }
+  std::uint64_t contacts = 0;
+  if (version >= 5) {
+    contacts = in.pod<std::uint64_t>();
+    rp.last_sample_step = in.pod<std::uint64_t>();
+    rp.last_snapshot_step = in.pod<std::uint64_t>();
+    rp.last_settled = in.pod<std::uint8_t>() != 0;
+    auto& ins = rp.insertion;
+    ins.active = in.pod<std::uint8_t>() != 0;
+    ins.placed = in.pod<std::uint64_t>();
+    ins.waves = in.pod<std::uint64_t>();
+    ins.empty_waves = in.pod<std::uint64_t>();
+    ins.fall_step = in.pod<std::uint64_t>();
+    const std::string rng_text = in.str();
+    if (ins.active) {
+      std::istringstream t(rng_text);
+      t >> ins.rng;
+      if (t.fail()) throw Error(path + ": corrupt checkpoint (insertion random state)");
+    }
+  }
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   if (!std::isfinite(time) || !std::isfinite(rp.rotation_time_s) || !(skin >= 0.0 && skin < 1e300))
     throw Error(path + ": corrupt checkpoint (time or skin)");
@@ -356,6 +396,7 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
     if (schedules[k].t1 > schedules[k].t0)
       sim.set_wall_translation(k, schedules[k].p, schedules[k].v, schedules[k].t0, schedules[k].t1);
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
+  sim.set_contact_count(static_cast<std::size_t>(contacts));
   check_consistency(sim, path);
   return rp;
 }

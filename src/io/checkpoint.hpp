@@ -5,6 +5,7 @@
 // the same build and thread count.
 #pragma once
 #include <cstdint>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,7 +14,22 @@
 
 namespace biodem::io {
 
-inline constexpr std::uint32_t kCheckpointVersion = 4;  // 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies; 4: lost bodies
+// 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies; 4: lost bodies; 5: insertion
+// state (checkpoints during insertion), last sample and snapshot steps, the last settle verdict.
+inline constexpr std::uint32_t kCheckpointVersion = 5;
+/// The oldest version load_checkpoint still reads (a version-4 file was never written during
+/// insertion; what it lacks is filled in as the run driver of that version assumed it).
+inline constexpr std::uint32_t kOldestReadableCheckpointVersion = 4;
+
+/// Insertion in waves, when the checkpoint was taken between two waves (issue 10, item 5).
+struct InsertionProgress {
+  bool active = false;              // insertion still under way
+  std::uint64_t placed = 0;         // requests placed so far (index of the next one)
+  std::uint64_t waves = 0;          // waves done
+  std::uint64_t empty_waves = 0;    // consecutive waves that placed nothing
+  std::uint64_t fall_step = 0;      // steps done of the fall that follows the last wave
+  std::mt19937_64 rng;              // the insertion's random generator after the last wave
+};
 
 /// Where the run driver was when the checkpoint was taken.
 struct RunProgress {
@@ -26,6 +42,13 @@ struct RunProgress {
   std::uint64_t series_bytes = 0;     // size of series.csv at the checkpoint
   std::uint64_t trace_bytes = 0;
   std::vector<std::pair<double, std::string>> pvd_spheres, pvd_bodies;
+  // Version 5 on (a version-4 file leaves them as below and `version` says so).
+  std::uint32_t version = kCheckpointVersion;  // of the file read
+  static constexpr std::uint64_t kNever = ~std::uint64_t{0};
+  std::uint64_t last_sample_step = kNever;     // step of the last series.csv row
+  std::uint64_t last_snapshot_step = kNever;   // step of the last snapshot
+  bool last_settled = false;                   // the last settle-criterion phase ended at rest
+  InsertionProgress insertion;
 };
 
 void save_checkpoint(const std::string& path, const sim::Simulation& sim, const RunProgress& progress);

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <random>
+#include <sstream>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -28,12 +30,14 @@ std::vector<char> read_all(const std::string& path) {
 }
 
 /// A checkpoint of the fuzz scene after 50 steps, modified by `edit` before saving.
-std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edit) {
+std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edit,
+                                const std::function<void(io::RunProgress&)>& edit_progress = {}) {
   sim::Simulation s = fuzz::make_scene();
   s.run_steps(50);
   edit(s);
   io::RunProgress rp;
   rp.pvd_spheres = {{0.0, "spheres_0.vtu"}};
+  if (edit_progress) edit_progress(rp);
   // One file per process: ctest runs the tests of this file as parallel processes, and a shared
   // name let one test remove the file another was reading (a CI failure).
   const std::string path = (std::filesystem::temp_directory_path() /
@@ -43,6 +47,19 @@ std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edi
   auto bytes = read_all(path);
   std::filesystem::remove(path);
   return bytes;
+}
+
+/// Header: magic (8), version (4), payload size (8); the checksum (8) ends the file.
+constexpr std::size_t kHead = 8 + 4 + 8;
+
+/// Sets the version, cuts the payload to `payload_size` bytes and writes a matching checksum.
+void rewrap(std::vector<char>& b, std::uint32_t version, std::size_t payload_size) {
+  b.resize(kHead + payload_size + 8);
+  std::memcpy(b.data() + 8, &version, 4);
+  const std::uint64_t size = payload_size;
+  std::memcpy(b.data() + 12, &size, 8);
+  const std::uint64_t sum = io::fnv1a(b.data() + kHead, payload_size);
+  std::memcpy(b.data() + kHead + payload_size, &sum, 8);
 }
 
 /// Loads `bytes` into a fresh scene; returns the error message ("" when it loaded).
@@ -107,4 +124,78 @@ TEST(CheckpointCorrupt, IndicesThatDoNotFitAreRejected) {
                         })),
                         "neighbour list rows");
   expect_one_line_error(load_error(checkpoint_of([](sim::Simulation& s) { s.set_skin(-0.5e-3); })), "time or skin");
+}
+
+// Version 5 (issue 10, item 5) appends the contact count, the last sample and snapshot steps, the
+// last settle verdict and the insertion state (flag, four counters, the generator's text).
+// A version-4 file is the same payload without that tail: it is still read, with no insertion
+// under way; version 3 and older are refused in one line.
+TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
+  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [](io::RunProgress& rp) {
+    rp.last_sample_step = 40;
+    rp.last_snapshot_step = 30;
+    rp.last_settled = true;
+  });
+  const std::size_t tail = 8 + 8 + 8 + 1 + 1 + 4 * 8 + 8;  // no generator text: insertion inactive
+  const std::size_t payload = b.size() - kHead - 8;
+  {
+    sim::Simulation s = fuzz::make_scene();
+    const auto rp = io::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
+    EXPECT_EQ(rp.version, 5u);
+    EXPECT_EQ(rp.last_sample_step, 40u);
+    EXPECT_EQ(rp.last_snapshot_step, 30u);
+    EXPECT_TRUE(rp.last_settled);
+    EXPECT_FALSE(rp.insertion.active);
+  }
+  std::vector<char> v4 = b;
+  rewrap(v4, 4, payload - tail);
+  {
+    sim::Simulation s = fuzz::make_scene();
+    const auto rp = io::load_checkpoint_bytes(v4, "run/checkpoint.bin", s);
+    EXPECT_EQ(rp.version, 4u);
+    EXPECT_EQ(rp.last_sample_step, io::RunProgress::kNever);
+    EXPECT_FALSE(rp.last_settled);
+    EXPECT_FALSE(rp.insertion.active);
+    EXPECT_EQ(s.step_count(), 50u);
+    s.step();
+  }
+  std::vector<char> v3 = v4;
+  rewrap(v3, 3, payload - tail);
+  expect_one_line_error(load_error(v3), "checkpoint format version 3, this biodem reads versions 4 to 5");
+  std::vector<char> v6 = b;
+  rewrap(v6, 6, payload);
+  expect_one_line_error(load_error(v6), "checkpoint format version 6");
+}
+
+// The insertion state round-trips, its generator included (the next draws are the same), and a
+// damaged generator text is a one-line error.
+TEST(CheckpointVersions, InsertionStateRoundTripsAndADamagedGeneratorIsRejected) {
+  std::mt19937_64 g(12345);
+  for (int k = 0; k < 1000; ++k) g();
+  std::ostringstream text;  // the generator's state as the checkpoint writes it
+  text << g;
+  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [&](io::RunProgress& rp) {
+    rp.insertion.active = true;
+    rp.insertion.placed = 672;
+    rp.insertion.waves = 2;
+    rp.insertion.empty_waves = 1;
+    rp.insertion.fall_step = 201;
+    rp.insertion.rng = g;
+  });
+  {
+    sim::Simulation s = fuzz::make_scene();
+    auto rp = io::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
+    EXPECT_TRUE(rp.insertion.active);
+    EXPECT_EQ(rp.insertion.placed, 672u);
+    EXPECT_EQ(rp.insertion.waves, 2u);
+    EXPECT_EQ(rp.insertion.empty_waves, 1u);
+    EXPECT_EQ(rp.insertion.fall_step, 201u);
+    for (int k = 0; k < 10; ++k) EXPECT_EQ(rp.insertion.rng(), g());
+  }
+  // The generator's text is the last field of the payload: its first character made a letter.
+  const std::size_t payload = b.size() - kHead - 8, at = kHead + payload - text.str().size();
+  ASSERT_EQ(std::string(b.data() + at, text.str().size()), text.str());
+  b[at] = 'x';
+  rewrap(b, io::kCheckpointVersion, payload);
+  expect_one_line_error(load_error(b), "insertion random state");
 }
