@@ -1,0 +1,148 @@
+// Kill-and-resume at chosen steps (test hooks BIODEM_TEST_ABORT_AT_STEP: the process ends as
+// after SIGKILL; BIODEM_TEST_SIGNAL_AT_STEP: SIGTERM, checkpoint, exit 143) where the older tests
+// never stopped a run:
+// - during insertion in waves (issue 10, item 5): the checkpoint carries the insertion state
+//   (particles placed, waves, the random generator, the step of the fall between waves);
+// - a bulk test (issue 9): a [heap] killed while pouring, while the poured beads settle, while
+//   the cylinder is lifted and while the heap comes to rest.
+// Every resumed run must end with the outputs of the uninterrupted run, byte for byte: series.csv,
+// trace.csv, both .pvd files, every .vtu, responses.csv. Each kill is checked to have happened
+// where it was aimed (run.log of the killed run), so the test cannot pass without testing it.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "test_util.hpp"
+
+using namespace biodem::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kWaves = source_dir() + "/tests/cases/insertion_waves_tiny.toml";
+const std::string kHeap = source_dir() + "/tests/cases/heap_resume_tiny.toml";
+
+struct Kill {
+  bool abort;          // true: BIODEM_TEST_ABORT_AT_STEP (exit 137); false: SIGTERM (exit 143)
+  std::uint64_t step;  // 0: the last step of the run
+  std::string where;   // "insert" or the name of the phase in progress at that step
+};
+
+std::string run_cmd(const std::string& case_file, const std::string& dir, const std::string& device) {
+  return biodem_exe() + " run " + case_file + " --out " + dir + " --threads 1 --device " + device;
+}
+
+std::size_t count(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+/// Where a run stood when it stopped, from its run.log: "insert" before the line that ends the
+/// insertion ("bodies: ..."), else the phase started last and not ended, else "between".
+std::string where_stopped(const std::string& log) {
+  if (log.find("\nbodies: ") == std::string::npos) return "insert";
+  const auto at = log.rfind("' starts at t = ");
+  if (at == std::string::npos) return "between";
+  const auto q = log.rfind('\'', at - 1);
+  const std::string name = log.substr(q + 1, at - q - 1);
+  return log.find("phase '" + name + "' ends") == std::string::npos ? name : "between";
+}
+
+/// The same files with the same bytes: series, trace, pvd lists, every snapshot, responses.
+void expect_same_outputs(const std::string& a, const std::string& b, const std::string& label) {
+  for (const char* f : {"series.csv", "trace.csv", "snapshots.pvd", "bodies.pvd", "responses.csv"}) {
+    EXPECT_EQ(fs::exists(a + "/" + f), fs::exists(b + "/" + f)) << label << ": " << f;
+    EXPECT_TRUE(slurp(a + "/" + f) == slurp(b + "/" + f)) << label << ": " << f << " differs";
+  }
+  std::set<std::string> fa, fb;
+  for (const auto& e : fs::directory_iterator(a + "/snapshots")) fa.insert(e.path().filename().string());
+  for (const auto& e : fs::directory_iterator(b + "/snapshots")) fb.insert(e.path().filename().string());
+  EXPECT_EQ(fa, fb) << label << ": snapshot files";
+  EXPECT_GE(fa.size(), 4u) << label;
+  for (const auto& f : fa)
+    EXPECT_TRUE(slurp(a + "/snapshots/" + f) == slurp(b + "/snapshots/" + f)) << label << ": snapshots/" << f << " differs";
+}
+
+/// Runs `case_file` uninterrupted into `<tag>_full`, then once per kill: stopped at the step,
+/// checked to have stopped where aimed, resumed, outputs compared.
+void kill_and_resume(const std::string& case_file, const std::string& tag, const std::string& device,
+                     const std::vector<Kill>& kills) {
+  const std::string full = fresh_dir(tag + "_full");
+  const auto r = run_command(run_cmd(case_file, full, device));
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string full_log = slurp(full + "/run.log");
+  const auto fin = full_log.find("finished: ");
+  ASSERT_NE(fin, std::string::npos) << full_log;
+  const std::uint64_t last_step = std::stoull(full_log.substr(fin + 10));
+  for (auto k : kills) {
+    if (k.step == 0) k.step = last_step;
+    ASSERT_LE(k.step, last_step);
+    const std::string label = tag + " " + (k.abort ? "abort" : "SIGTERM") + " at step " + std::to_string(k.step);
+    const std::string d = fresh_dir(tag + "_" + std::to_string(k.step));
+    const std::string hook = k.abort ? "BIODEM_TEST_ABORT_AT_STEP=" : "BIODEM_TEST_SIGNAL_AT_STEP=";
+    const auto rk = run_command(hook + std::to_string(k.step) + " " + run_cmd(case_file, d, device));
+    ASSERT_EQ(rk.status, k.abort ? 137 : 143) << label << "\n" << rk.output;
+    const std::string log = slurp(d + "/run.log");
+    ASSERT_EQ(where_stopped(log), k.where) << label << "\n" << log;
+    if (k.where == "insert") {
+      // Stopped between two waves: fewer waves logged than the whole insertion takes.
+      EXPECT_LT(count(log, "insertion wave "), count(full_log, "insertion wave ")) << label;
+      if (!k.abort) {
+        EXPECT_NE(rk.output.find("while inserting particles"), std::string::npos) << rk.output;
+      }
+    }
+    if (!k.abort) {
+      EXPECT_NE(rk.output.find("continue with --resume"), std::string::npos) << rk.output;
+    }
+    ASSERT_TRUE(fs::exists(d + "/checkpoint.bin")) << label;
+    const auto rr = run_command(run_cmd(case_file, d, device) + " --resume");
+    ASSERT_EQ(rr.status, 0) << label << "\n" << rr.output;
+    if (k.where == "insert") {
+      EXPECT_NE(slurp(d + "/run.log").find("insertion resumes at t = "), std::string::npos) << label;
+    }
+    expect_same_outputs(full, d, label);
+  }
+}
+
+}  // namespace
+
+// 1000 beads in six waves 600 steps apart (waves at steps 0, 600, ..., 3000); checkpoints every
+// 200 steps, samples every 133. Killed in the first fall between checkpoints (SIGTERM 450),
+// right after a checkpoint that closes a fall (abort 601: resumes at 600, before wave 2), in the
+// third fall (abort 1500: resumes at 1400), on the last step of a fall (SIGTERM 2400) and on the
+// last step before the final wave (SIGTERM 3000: the sample right after insertion is off the
+// sampling cadence).
+TEST(ResumeInsertion, DrumKilledDuringInsertionResumesBitForBit) {
+  kill_and_resume(kWaves, "ins_cpu", "cpu",
+                  {{false, 450, "insert"}, {true, 601, "insert"}, {true, 1500, "insert"}, {false, 2400, "insert"},
+                   {false, 3000, "insert"}});
+}
+
+// The GPU engine's kernels on CPU threads: the device state is uploaded again after a resume
+// inside the insertion.
+TEST(ResumeInsertion, GpuEngineKilledDuringInsertionResumesBitForBit) {
+  kill_and_resume(kWaves, "ins_gpuemu", "gpu-emulated", {{true, 1500, "insert"}, {false, 3000, "insert"}});
+}
+
+// [heap] with 300 beads: two waves (steps 0 and 800), fill until at rest (to step ~6000), lift
+// (8000 steps), rest. Killed while pouring (abort 700, resumes at 400), while the poured beads
+// settle (SIGTERM 3000), while the cylinder is lifted (abort 9000, resumes at 8800) and while
+// the heap comes to rest (abort 16000), and on the last step (SIGTERM: the final sample is off
+// the sampling cadence; before checkpoint version 5 the resumed run lost it). A --resume of the
+// finished run changes nothing (before version 5 it rewrote responses.csv with at_rest = 0).
+TEST(ResumeBulkTest, HeapKilledWhilePouringAndLiftingResumesBitForBit) {
+  kill_and_resume(kHeap, "heap_resume", "cpu",
+                  {{true, 700, "insert"}, {false, 3000, "fill"}, {true, 9000, "lift"}, {true, 16000, "rest"},
+                   {false, 0, "rest"}});
+  const std::string d = (fs::current_path() / "out_heap_resume_16000").string();  // fresh_dir() would empty it
+  const std::string responses = slurp(d + "/responses.csv"), series = slurp(d + "/series.csv");
+  ASSERT_NE(responses.find("at_rest,1,"), std::string::npos) << responses;
+  const auto rr = run_command(run_cmd(kHeap, d, "cpu") + " --resume");
+  ASSERT_EQ(rr.status, 0) << rr.output;
+  EXPECT_EQ(slurp(d + "/responses.csv"), responses);
+  EXPECT_EQ(slurp(d + "/series.csv"), series);
+}
