@@ -1,6 +1,6 @@
 // The small scene the checkpoint harness loads into: two shapes (a sphere and a three-sphere
 // clump), two materials, a floor and a drum mantle, four bodies. make_seed_checkpoint() writes a
-// valid checkpoint of it after a few steps (the seed of the committed corpus).
+// valid checkpoint of it after a few steps (a seed of the committed corpus: seed_v5_*).
 #pragma once
 #include <string>
 
@@ -61,6 +61,15 @@ inline void make_seed_checkpoint(const std::string& path) {
   s.run_steps(50);
   io::RunProgress rp;
   rp.pvd_spheres = {{0.0, "spheres_0.vtu"}};
+  // Version 5: taken between two insertion waves, so that the insertion state (with the
+  // generator's text) is in the payload too.
+  rp.last_sample_step = 50;
+  rp.last_snapshot_step = 0;
+  rp.insertion.active = true;
+  rp.insertion.placed = 4;
+  rp.insertion.waves = 1;
+  rp.insertion.fall_step = 50;
+  rp.insertion.rng.seed(1);
   io::save_checkpoint(path, s, rp);
 }
 
