@@ -13,12 +13,13 @@ Action register_run(CLI::App& app) {
   auto* sub = app.add_subcommand("run", "Run a case: insertion, phases, series.csv, snapshots, run.log");
   static std::string case_path, out_dir;
   static int threads = 0;
-  static bool resume = false;
+  static bool resume = false, profile = false;
   static std::string device;
   sub->add_option("CASE", case_path, "case file (TOML)")->required();
   sub->add_option("--out", out_dir, "output directory (created if needed)")->required();
   sub->add_option("--threads", threads, "OpenMP threads (default: all cores)")->check(CLI::NonNegativeNumber);
   sub->add_flag("--resume", resume, "continue from the last checkpoint in --out");
+  sub->add_flag("--profile", profile, "time the phases of the CPU engine's step and write them to run.log");
   sub->add_option("--device", device,
                   "engine: cpu (default), gpu (CUDA GPU engine), or gpu-emulated (the GPU engine's kernels on CPU "
                   "threads, for testing); overrides [run] device")
@@ -30,6 +31,7 @@ Action register_run(CLI::App& app) {
     opt.out_dir = out_dir;
     opt.threads = threads;
     opt.resume = resume;
+    opt.profile = profile;
     if (device == "cpu") opt.device = config::Device::Cpu;
     if (device == "gpu") opt.device = config::Device::Gpu;
     if (device == "gpu-emulated") opt.device = config::Device::GpuEmulated;

@@ -660,6 +660,8 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
          << ", " << p.move_velocity_m_s.z << ") m/s until t = " << t_end << " s\n";
   }
   log_.flush();  // a run killed during the phase still says which phase it was in
+  sim_.set_profile(opt_.profile && !dev_);
+  sim_.reset_profile();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   while (!settled && k < p.max_steps) {
@@ -682,6 +684,19 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "; wall " << wall << " s, " << (k ? 1e6 * wall / static_cast<double>(k) : 0.0) << " us/step, " << rate
        << " sphere-steps/s";
   if (!dev_) log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
+  if (opt_.profile && !dev_ && sim_.profile().steps > 0) {
+    const sim::StepProfile& q = sim_.profile();
+    const double per = 1e6 / static_cast<double>(q.steps);
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "\nprofile '%s' (us/step over %llu steps, %llu list builds): step %.1f = drift %.1f + list %.1f + "
+                  "pairs %.1f (threads busy %.0f %%) + gather/walls/kick %.1f; outside step() %.1f",
+                  p.name.c_str(), static_cast<unsigned long long>(q.steps), static_cast<unsigned long long>(q.builds),
+                  q.step_s * per, q.drift_s * per, q.list_s * per, q.pairs_s * per,
+                  q.pairs_s > 0.0 ? 100.0 * q.pairs_busy_s / q.pairs_s : 0.0, q.gather_s * per,
+                  (wall - q.step_s) * per);
+    log_ << buf;
+  }
   if (p.criterion) last_settled_ = below >= p.hold_steps;
   if (p.criterion)
     log_ << (below >= p.hold_steps ? " (settled: mean kinetic energy below threshold)"

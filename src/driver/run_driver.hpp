@@ -14,6 +14,7 @@ struct RunOptions {
   int threads = 0;      // 0: OpenMP default
   bool resume = false;
   bool progress_tty = false;
+  bool profile = false;  // --profile: per-phase timers of the CPU step in run.log
   std::optional<config::Device> device;  // --device; absent: the case's [run] device (default cpu)
 };
 

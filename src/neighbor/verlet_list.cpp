@@ -266,7 +266,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
 
 bool VerletList::needs_rebuild(const state::SphereStore& s) const {
   if (built_at_.size() != s.size()) return true;
-  const double limit2 = 0.25 * skin_m_ * skin_m_;
+  const double limit2 = rebuild_limit2();
   const std::size_t n = s.size();
   int flag = 0;
 #pragma omp parallel for proc_bind(close) reduction(| : flag) schedule(static) if (n >= kParallelThreshold)

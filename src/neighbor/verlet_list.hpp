@@ -45,6 +45,8 @@ class VerletList {
   static constexpr std::uint32_t kRemoved = 0xFFFFFFFFu;
   /// True when some sphere moved more than half the skin since the last build.
   bool needs_rebuild(const state::SphereStore& spheres) const;
+  /// Squared displacement since the last build beyond which the list must be rebuilt, (skin/2)^2.
+  double rebuild_limit2() const { return 0.25 * skin_m_ * skin_m_; }
 
   std::size_t entries() const { return j.size(); }
   // Checkpoint access to the private bookkeeping (positions at the last build, build count).

@@ -1,12 +1,15 @@
 #include "sim/simulation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cmath>
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "integrate/rigid_rotation.hpp"
+
+#include <omp.h>
 
 namespace biodem::sim {
 
@@ -86,27 +89,29 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
   return b;
 }
 
+void Simulation::place_spheres_of(std::size_t b) {
+  const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
+  const Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b];
+  if (ns == 1 && spheres_.offset_body_m[s0] == Vec3{}) {
+    spheres_.position_m[s0] = x;
+    spheres_.velocity_m_s[s0] = v;
+    spheres_.angular_velocity_rad_s[s0] = w;
+    return;
+  }
+  const Mat3 r = to_matrix(bodies_.orientation[b]);
+  for (std::uint32_t s = s0; s < s0 + ns; ++s) {
+    const Vec3 arm = r * spheres_.offset_body_m[s];
+    spheres_.position_m[s] = x + arm;
+    spheres_.velocity_m_s[s] = v + cross(w, arm);
+    spheres_.angular_velocity_rad_s[s] = w;
+  }
+}
+
 void Simulation::update_spheres_from_bodies() {
   spheres_stale_ = false;
   const std::size_t nb = bodies_.size();
 #pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) {
-    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
-    const Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b];
-    if (ns == 1 && spheres_.offset_body_m[s0] == Vec3{}) {
-      spheres_.position_m[s0] = x;
-      spheres_.velocity_m_s[s0] = v;
-      spheres_.angular_velocity_rad_s[s0] = w;
-      continue;
-    }
-    const Mat3 r = to_matrix(bodies_.orientation[b]);
-    for (std::uint32_t s = s0; s < s0 + ns; ++s) {
-      const Vec3 arm = r * spheres_.offset_body_m[s];
-      spheres_.position_m[s] = x + arm;
-      spheres_.velocity_m_s[s] = v + cross(w, arm);
-      spheres_.angular_velocity_rad_s[s] = w;
-    }
-  }
+  for (std::size_t b = 0; b < nb; ++b) place_spheres_of(b);
 }
 
 void Simulation::reorder_spatially() {
@@ -258,6 +263,7 @@ std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
 void Simulation::rebuild_neighbors() {
   list_.build(spheres_);
   update_wall_candidates();
+  blocks_for_ = {};  // re-balance the threads' blocks for the new list
 }
 
 void Simulation::update_wall_candidates() {
@@ -337,12 +343,11 @@ void Simulation::refresh() {
   // and rolling springs) must not advance: it is restored after the evaluation.
   const auto pair_history = list_.history;
   const auto wall_history = wall_contacts_.history;
-  compute_forces();
+  forces_and_kick(false);
   for (std::size_t k = 0; k < pair_history.size(); ++k)
     if (list_.touching[k]) list_.history[k] = pair_history[k];
   for (std::size_t k = 0; k < wall_history.size(); ++k)
     if (wall_contacts_.touching[k]) wall_contacts_.history[k] = wall_history[k];
-  reduce_to_bodies();
   forces_valid_ = true;
 }
 
@@ -360,77 +365,180 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
   forces_valid_ = true;
 }
 
+namespace {
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+}  // namespace
+
 void Simulation::step() {
   if (!forces_valid_ || !list_valid_) refresh();
-  const double h = 0.5 * dt_s_, dt = dt_s_;
-  const std::size_t nb = bodies_.size();
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) {
-    const double inv_m = 1.0 / bodies_.mass_kg[b];
-    bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
-    bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
-    const Vec3 inertia = bodies_.inertia_kg_m2[b];
-    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
-    } else {
-      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
-      bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
-          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
-    }
+  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
+  update_wall_motion(time_s_ + dt_s_);
+  const bool moved = kick_drift_place();
+  Clock::time_point t1{};
+  if (profile_on_) {
+    t1 = Clock::now();
+    profile_.drift_s += std::chrono::duration<double>(t1 - t0).count();
   }
-  update_wall_motion(time_s_ + dt);
   apply_sinks();
-  update_spheres_from_bodies();
-  if (list_.needs_rebuild(spheres_)) {
+  if (moved || list_.built_at().size() != spheres_.size()) {
     check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
     rebuild_neighbors();
+    if (profile_on_) ++profile_.builds;
   }
-  compute_forces();
-  reduce_to_bodies();
-  const std::size_t nb_kept = bodies_.size();  // a sink or the lost-body check may have removed bodies
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb_kept >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb_kept; ++b) {
-    bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * bodies_.force_n[b];
-    const Vec3 inertia = bodies_.inertia_kg_m2[b];
-    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
-    } else {
-      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
-      bodies_.angular_velocity_rad_s[b] = integrate::angular_velocity_from_momentum(
-          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia);
-    }
-  }
+  if (profile_on_) profile_.list_s += seconds_since(t1);
+  forces_and_kick(true);
   // Sphere velocities at the full step are refreshed lazily, when someone reads the spheres
   // (outputs, diagnostics); the next step refreshes them anyway.
   spheres_stale_ = true;
-  time_s_ += dt;
+  time_s_ += dt_s_;
   ++steps_;
+  if (profile_on_) {
+    profile_.step_s += seconds_since(t0);
+    ++profile_.steps;
+  }
 }
 
-void Simulation::compute_forces() {
+bool Simulation::kick_drift_place() {
+  // First half kick, drift, the bodies' spheres placed, and the neighbour-list displacement test,
+  // fused into one pass over the bodies. Each thread takes the same block of bodies as in the
+  // force pass, so the body and sphere data it writes stay in its own cache from step to step.
+  const double h = 0.5 * dt_s_, dt = dt_s_;
+  ensure_work_blocks();
+  const int blocks = static_cast<int>(block_body_.size()) - 1;
+  const std::vector<Vec3>& built = list_.built_at();
+  const bool have_built = built.size() == spheres_.size();
+  const double limit2 = list_.rebuild_limit2();
+  int moved = have_built ? 0 : 1;
+#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(| : moved) if (blocks > 1)
+  {
+    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+    for (int k = me; k < blocks; k += team)
+      for (std::size_t b = block_body_[k]; b < block_body_[k + 1]; ++b) {
+        const double inv_m = 1.0 / bodies_.mass_kg[b];
+        bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
+        bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
+        const Vec3 inertia = bodies_.inertia_kg_m2[b];
+        if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+          bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
+        } else {
+          bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
+          bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
+              bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
+        }
+        place_spheres_of(b);
+        if (have_built) {
+          const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+          for (std::uint32_t s = s0; s < s1; ++s)
+            if (!(norm2(spheres_.position_m[s] - built[s]) <= limit2)) moved = 1;  // NaN also triggers a (failing) build
+        }
+      }
+  }
+  spheres_stale_ = false;
+  return moved != 0;
+}
+
+void Simulation::ensure_work_blocks() {
+  const std::size_t want = spheres_.size() >= kParallelThreshold ? static_cast<std::size_t>(std::max(1, omp_get_max_threads())) : 1;
+  if (blocks_for_ != std::pair<std::size_t, std::size_t>{bodies_.size(), want}) update_work_blocks();
+}
+
+void Simulation::update_work_blocks() {
+  // Cuts the bodies into one contiguous block per thread with about the same work: per sphere,
+  // its list row and reverse entries, its wall candidates and a constant for the per-sphere
+  // work. Bodies own contiguous spheres, so a block is also a contiguous range of spheres, and
+  // the thread that evaluates a block's rows also gathers and integrates its bodies (the pair
+  // results it reads were mostly written by itself). The cuts only decide who does what: the
+  // result is the same for any cuts.
+  const std::size_t nb = bodies_.size(), n = spheres_.size();
+  const int threads = n >= kParallelThreshold ? std::max(1, omp_get_max_threads()) : 1;
+  const bool rows_ok = list_.row_start.size() == n + 1 && list_.rev_start.size() == n + 1 &&
+                       wall_contacts_.start.size() == n + 1;
+  block_body_.assign(static_cast<std::size_t>(threads) + 1, nb);
+  block_body_[0] = 0;
+  if (threads == 1 || !rows_ok) {
+    for (int t = 1; t < threads; ++t) block_body_[t] = nb * t / threads;
+    blocks_for_ = {nb, static_cast<std::size_t>(threads)};
+    return;
+  }
+  std::vector<double> prefix(nb + 1, 0.0);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+    const double w = static_cast<double>(list_.row_start[s1] - list_.row_start[s0]) +
+                     0.25 * static_cast<double>(list_.rev_start[s1] - list_.rev_start[s0]) +
+                     static_cast<double>(wall_contacts_.start[s1] - wall_contacts_.start[s0]) +
+                     1.0 * static_cast<double>(s1 - s0);
+    prefix[b + 1] = prefix[b] + w;
+  }
+  for (int t = 1; t < threads; ++t) {
+    const double target = prefix[nb] * t / threads;
+    block_body_[t] = static_cast<std::size_t>(std::lower_bound(prefix.begin(), prefix.end(), target) - prefix.begin());
+    block_body_[t] = std::clamp(block_body_[t], block_body_[t - 1], nb);
+  }
+  blocks_for_ = {nb, static_cast<std::size_t>(threads)};
+}
+
+void Simulation::forces_and_kick(bool kick) {
   if (cohesion_) {
-    if (rolling_) compute_forces_impl<true, true>();
-    else compute_forces_impl<true, false>();
+    if (rolling_) forces_and_kick_impl<true, true>(kick);
+    else forces_and_kick_impl<true, false>(kick);
   } else {
-    if (rolling_) compute_forces_impl<false, true>();
-    else compute_forces_impl<false, false>();
+    if (rolling_) forces_and_kick_impl<false, true>(kick);
+    else forces_and_kick_impl<false, false>(kick);
   }
 }
 
 template <bool Cohesion, bool Rolling>
-void Simulation::compute_forces_impl() {
-  const std::size_t n = spheres_.size();
+void Simulation::forces_and_kick_impl(bool kick) {
+  ensure_work_blocks();
+  const int blocks = static_cast<int>(block_body_.size()) - 1;
+  std::size_t pair_contacts = 0, wall_contacts = 0;
+  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
+  double pair_end_s = 0.0, busy_s = 0.0;
+
+  // One parallel region per step: every thread evaluates the list rows of its block, one
+  // barrier, then gathers, adds wall contacts, sums its bodies and kicks them.
+#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(+ : pair_contacts, wall_contacts, busy_s) if (blocks > 1)
+  {
+    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+    const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
+    for (int k = me; k < blocks; k += team) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) continue;
+      pair_contacts += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                    bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+    }
+    if (profile_on_) busy_s += seconds_since(tp);
+#pragma omp barrier
+    if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
+    for (int k = me; k < blocks; k += team) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) continue;
+      wall_contacts += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                           bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+      reduce_and_kick(b0, b1, kick);
+    }
+  }
+  contacts_ = pair_contacts + wall_contacts;
+  if (profile_on_ && kick) {
+    const double total = seconds_since(t0);
+    profile_.pairs_s += pair_end_s;
+    profile_.pairs_busy_s += busy_s / std::max(1, blocks);
+    profile_.gather_s += total - pair_end_s;
+  }
+}
+
+template <bool Cohesion, bool Rolling>
+std::size_t Simulation::pair_rows(std::size_t i0, std::size_t i1) {
+  // Pair entries of rows i0..i1: each entry is written by the thread that owns its row; the row
+  // owner sums its own side at once, and stores for the j side what j will gather.
   const auto& s = spheres_;
   auto& L = list_;
   const bool periodic = domain_.any_periodic();
   const double dt = dt_s_;
-  std::size_t pair_contacts = 0, wall_contacts = 0;
-
-  // Pair entries: each entry is written by the thread that owns its row; the row owner sums
-  // its own side at once, and stores for the j side what j will gather (force and torque).
-#pragma omp parallel for proc_bind(close) schedule(dynamic, 128) reduction(+ : pair_contacts) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
+  std::size_t contacts = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
     const Vec3 xi = s.position_m[i];
     const double ri = s.radius_m[i];
     Vec3 f_own, t_own;
@@ -461,16 +569,24 @@ void Simulation::compute_forces_impl() {
       L.torque_j[k] = out.torque_j;
       f_own += out.force_i;
       t_own += out.torque_i;
-      ++pair_contacts;
+      ++contacts;
     }
     spheres_.force_n[i] = f_own;
     spheres_.torque_n_m[i] = t_own;
   }
+  return contacts;
+}
 
-  // Gather per sphere (fixed order) plus wall contacts, owned by the sphere.
+template <bool Cohesion, bool Rolling>
+std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
+  // Per sphere, in a fixed order: its own row's sum, the entries where it is the j side (rows in
+  // ascending order), then its wall contacts.
+  const auto& s = spheres_;
+  const auto& L = list_;
   auto& wc = wall_contacts_;
-#pragma omp parallel for proc_bind(close) schedule(static) reduction(+ : wall_contacts) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
+  const double dt = dt_s_;
+  std::size_t contacts = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
     for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
       const std::uint32_t k = L.rev_entry[q];
@@ -500,18 +616,18 @@ void Simulation::compute_forces_impl() {
       wc.touching[slot] = 1;
       f += out.force_i;
       t += out.torque_i;
-      ++wall_contacts;
+      ++contacts;
     }
     spheres_.force_n[i] = f;
     spheres_.torque_n_m[i] = t;
   }
-  contacts_ = pair_contacts + wall_contacts;
+  return contacts;
 }
 
-void Simulation::reduce_to_bodies() {
-  const std::size_t nb = bodies_.size();
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) {
+void Simulation::reduce_and_kick(std::size_t b0, std::size_t b1, bool kick) {
+  // Body force (with gravity) and torque about the centre of mass, then the second half kick.
+  const double h = 0.5 * dt_s_;
+  for (std::size_t b = b0; b < b1; ++b) {
     const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
     Vec3 f = bodies_.mass_kg[b] * gravity_, t;
     for (std::uint32_t s = s0; s < s0 + ns; ++s) {
@@ -520,6 +636,16 @@ void Simulation::reduce_to_bodies() {
     }
     bodies_.force_n[b] = f;
     bodies_.torque_n_m[b] = t;
+    if (!kick) continue;
+    bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * f;
+    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    if (ns == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * t;
+    } else {
+      bodies_.angular_momentum_kg_m2_s[b] += h * t;
+      bodies_.angular_velocity_rad_s[b] = integrate::angular_velocity_from_momentum(
+          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia);
+    }
   }
 }
 

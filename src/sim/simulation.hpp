@@ -6,16 +6,21 @@
 // symplectic splitting in integrate/rigid_rotation.hpp):
 //   1. half kick  v += dt/2 F/m,  L += dt/2 T (spheres: omega += dt/2 T/I)
 //   2. drift      x += dt v, orientation advanced by the free-rotor splitting
-//   3. spheres refreshed from their bodies; neighbour list rebuilt if a sphere moved > skin/2
-//   4. contact forces: pair entries (parallel over rows, each entry written by one thread),
-//      then each sphere gathers its entries and its wall contacts in a fixed order
-//   5. reduction into body force (with gravity) and torque about the centre of mass
-//   6. half kick with the new forces
+//   3. spheres placed from their bodies, and the displacement since the last list build tested
+//      (1-3 are one parallel pass over the bodies)
+//   4. serial, rare: sinks, lost bodies, spatial sort and neighbour-list rebuild when a sphere
+//      moved more than skin/2
+//   5. one parallel region: each thread owns a contiguous block of bodies (cut for equal work
+//      at each list build) and evaluates its spheres' list rows (each entry written by one
+//      thread); one barrier; then each sphere gathers its entries and its wall contacts in a
+//      fixed order, each body sums its spheres (force with gravity, torque about the centre of
+//      mass) and gets the second half kick.
 // Determinism: no atomics or thread-order-dependent sums anywhere; the result is bit-identical
 // for any number of threads on the same build.
 #pragma once
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "contact/contact_model.hpp"
@@ -75,6 +80,17 @@ struct LostRegion {
   bool periodic_z = false;
   Vec3 min_m, max_m;  // box
   bool remove = false;  // false: a lost body stops the run with an error; true: it is removed and counted
+};
+
+/// Wall-clock time spent in the phases of the CPU step (run --profile), summed over steps.
+struct StepProfile {
+  std::uint64_t steps = 0, builds = 0;
+  double step_s = 0.0;        // whole steps
+  double drift_s = 0.0;       // half kick, drift, sphere placement, displacement test
+  double list_s = 0.0;        // sinks, lost bodies, sorting and list rebuilds
+  double pairs_s = 0.0;       // pair rows, up to the barrier (the slowest thread)
+  double pairs_busy_s = 0.0;  // pair rows, mean over threads of their own time (balance = busy / pairs)
+  double gather_s = 0.0;      // gather, wall contacts, body sums, second half kick
 };
 
 struct BodyInit {
@@ -140,6 +156,10 @@ class Simulation {
 
   // --- stepping ---
   void step();
+  /// Per-phase timers of step() (off by default: they read the clock a few times per step).
+  void set_profile(bool on) { profile_on_ = on; }
+  const StepProfile& profile() const { return profile_; }
+  void reset_profile() { profile_ = {}; }
   void run_steps(std::uint64_t n) { for (std::uint64_t i = 0; i < n; ++i) step(); }
 
   // --- state and diagnostics ---
@@ -195,10 +215,22 @@ class Simulation {
 
  private:
   void update_spheres_from_bodies();
-  void compute_forces();
+  void place_spheres_of(std::size_t b);
+  /// Half kick, drift and placement of every body's spheres; true when a sphere moved more than
+  /// half the skin since the last list build (or the list has no build positions).
+  bool kick_drift_place();
+  /// Contact forces, body sums and (with kick) the second half kick, in one parallel region.
+  void forces_and_kick(bool kick);
   template <bool Cohesion, bool Rolling>
-  void compute_forces_impl();
-  void reduce_to_bodies();
+  void forces_and_kick_impl(bool kick);
+  template <bool Cohesion, bool Rolling>
+  std::size_t pair_rows(std::size_t i0, std::size_t i1);
+  template <bool Cohesion, bool Rolling>
+  std::size_t gather_and_walls(std::size_t i0, std::size_t i1);
+  void reduce_and_kick(std::size_t b0, std::size_t b1, bool kick);
+  /// Cuts the bodies into one block of about equal work per thread (block_body_).
+  void update_work_blocks();
+  void ensure_work_blocks();
   void apply_drum_rotation();
   /// Renumbers bodies (and their spheres) in cell order so that neighbours are close in memory;
   /// remaps the contact history. Stable ids are kept in BodyStore::id.
@@ -242,6 +274,10 @@ class Simulation {
   bool cohesion_ = false, rolling_ = false;
   bool wall_rolling_lab_ = false;
   std::size_t sort_every_builds_ = 16;
+  std::vector<std::size_t> block_body_;          // thread blocks: bodies [block_body_[k], block_body_[k+1])
+  std::pair<std::size_t, std::size_t> blocks_for_;  // (bodies, threads) the blocks were cut for
+  bool profile_on_ = false;
+  StepProfile profile_;
 };
 
 }  // namespace biodem::sim
