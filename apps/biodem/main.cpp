@@ -1,6 +1,8 @@
 // biodem command line: one program, sub-commands (SPEC 11).
 #include <CLI/CLI.hpp>
+#include <cstdlib>
 #include <exception>
+#include <unistd.h>
 #include <iostream>
 #include <utility>
 #include <vector>
@@ -8,7 +10,28 @@
 #include "commands.hpp"
 #include "core/error.hpp"
 
+// How long an idle OpenMP thread spins before it sleeps. GNU OpenMP reads GOMP_SPINCOUNT once,
+// when the library loads (before main), and its default, 300,000 spins (several ms), made
+// two-thread runs on virtual machines bimodal: the same run took 0.55x or 1.25x the one-thread
+// time from one launch to the next (a vCPU that spins on PAUSE for long is descheduled by the
+// hypervisor). 3,000 spins (tens of microseconds) cover the waits inside a step and gave the
+// 2-thread speed-up in every launch (docs/performance.md). So, unless the user set
+// GOMP_SPINCOUNT or OMP_WAIT_POLICY, biodem sets it and executes itself again, once, at start.
+namespace {
+void set_openmp_spin_and_reexec(char** argv) {
+#if defined(__linux__)
+  if (std::getenv("GOMP_SPINCOUNT") != nullptr || std::getenv("OMP_WAIT_POLICY") != nullptr) return;
+  if (setenv("GOMP_SPINCOUNT", "3000", 1) != 0) return;
+  execv("/proc/self/exe", argv);  // returns only on failure: carry on with the library default
+  unsetenv("GOMP_SPINCOUNT");
+#else
+  (void)argv;
+#endif
+}
+}  // namespace
+
 int main(int argc, char** argv) {
+  set_openmp_spin_and_reexec(argv);
   CLI::App app{"biodem: DEM of cohesive, elongated biomass powders in a rotating drum"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "biodem 0.1.0");

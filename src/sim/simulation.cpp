@@ -374,21 +374,25 @@ void Simulation::step() {
   if (!forces_valid_ || !list_valid_) refresh();
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   update_wall_motion(time_s_ + dt_s_);
-  const bool moved = kick_drift_place();
-  Clock::time_point t1{};
-  if (profile_on_) {
-    t1 = Clock::now();
-    profile_.drift_s += std::chrono::duration<double>(t1 - t0).count();
+  // Common case, one parallel region: drift, and unless the list must be rebuilt, the forces
+  // and the second kick too. A rebuild (or a sink, which needs the drifted bodies serially)
+  // leaves the region after the drift; the rest of the step then runs as separate passes.
+  const bool fused = sinks_.empty();
+  const bool done = fused ? step_in_one_region() : false;
+  if (!done) {
+    const bool moved = fused ? true : kick_drift_place();  // (fused: drifted, and a rebuild is due)
+    const Clock::time_point t1 = profile_on_ ? Clock::now() : Clock::time_point{};
+    if (profile_on_ && !fused) profile_.drift_s += std::chrono::duration<double>(t1 - t0).count();
+    apply_sinks();
+    if (moved || list_.built_at().size() != spheres_.size()) {
+      check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
+      if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
+      rebuild_neighbors();
+      if (profile_on_) ++profile_.builds;
+    }
+    if (profile_on_) profile_.list_s += seconds_since(t1);
+    forces_and_kick(true);
   }
-  apply_sinks();
-  if (moved || list_.built_at().size() != spheres_.size()) {
-    check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
-    if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
-    rebuild_neighbors();
-    if (profile_on_) ++profile_.builds;
-  }
-  if (profile_on_) profile_.list_s += seconds_since(t1);
-  forces_and_kick(true);
   // Sphere velocities at the full step are refreshed lazily, when someone reads the spheres
   // (outputs, diagnostics); the next step refreshes them anyway.
   spheres_stale_ = true;
@@ -400,43 +404,115 @@ void Simulation::step() {
   }
 }
 
-bool Simulation::kick_drift_place() {
-  // First half kick, drift, the bodies' spheres placed, and the neighbour-list displacement test,
-  // fused into one pass over the bodies. Each thread takes the same block of bodies as in the
-  // force pass, so the body and sphere data it writes stay in its own cache from step to step.
+int Simulation::drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2) {
+  // First half kick, drift, the body's spheres placed, and the list displacement test.
   const double h = 0.5 * dt_s_, dt = dt_s_;
+  const std::vector<Vec3>& built = list_.built_at();
+  int moved = 0;
+  for (std::size_t b = b0; b < b1; ++b) {
+    const double inv_m = 1.0 / bodies_.mass_kg[b];
+    bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
+    bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
+    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
+      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
+    } else {
+      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
+      bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
+          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
+    }
+    place_spheres_of(b);
+    if (have_built) {
+      const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+      for (std::uint32_t s = s0; s < s1; ++s)
+        if (!(norm2(spheres_.position_m[s] - built[s]) <= limit2)) moved = 1;  // NaN also triggers a (failing) build
+    }
+  }
+  return moved;
+}
+
+bool Simulation::kick_drift_place() {
+  // The drift as its own pass (scenes with sinks). Each thread takes the same block of bodies
+  // as in the force pass, so the data it writes stay in its own cache from step to step.
   ensure_work_blocks();
   const int blocks = static_cast<int>(block_body_.size()) - 1;
-  const std::vector<Vec3>& built = list_.built_at();
-  const bool have_built = built.size() == spheres_.size();
+  const bool have_built = list_.built_at().size() == spheres_.size();
   const double limit2 = list_.rebuild_limit2();
   int moved = have_built ? 0 : 1;
 #pragma omp parallel num_threads(blocks) proc_bind(close) reduction(| : moved) if (blocks > 1)
   {
     const int team = omp_get_num_threads(), me = omp_get_thread_num();
-    for (int k = me; k < blocks; k += team)
-      for (std::size_t b = block_body_[k]; b < block_body_[k + 1]; ++b) {
-        const double inv_m = 1.0 / bodies_.mass_kg[b];
-        bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
-        bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
-        const Vec3 inertia = bodies_.inertia_kg_m2[b];
-        if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-          bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
-        } else {
-          bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
-          bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
-              bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
-        }
-        place_spheres_of(b);
-        if (have_built) {
-          const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
-          for (std::uint32_t s = s0; s < s1; ++s)
-            if (!(norm2(spheres_.position_m[s] - built[s]) <= limit2)) moved = 1;  // NaN also triggers a (failing) build
-        }
-      }
+    for (int k = me; k < blocks; k += team) moved |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
   }
   spheres_stale_ = false;
   return moved != 0;
+}
+
+bool Simulation::step_in_one_region() {
+  if (cohesion_) {
+    if (rolling_) return step_in_one_region_impl<true, true>();
+    return step_in_one_region_impl<true, false>();
+  }
+  if (rolling_) return step_in_one_region_impl<false, true>();
+  return step_in_one_region_impl<false, false>();
+}
+
+template <bool Cohesion, bool Rolling>
+bool Simulation::step_in_one_region_impl() {
+  // Drift of every block; barrier; every thread reads all blocks' displacement flags (so all
+  // take the same branch); if no rebuild is due: pair rows, barrier, gather, walls, body sums
+  // and the second kick. Returns false when a rebuild is due (the bodies have drifted).
+  ensure_work_blocks();
+  const int blocks = static_cast<int>(block_body_.size()) - 1;
+  const bool have_built = list_.built_at().size() == spheres_.size();
+  const double limit2 = list_.rebuild_limit2();
+  block_moved_.assign(static_cast<std::size_t>(blocks), 0);
+  std::size_t pair_contacts = 0, wall_contacts = 0;
+  bool rebuild = false;
+  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
+  double drift_end_s = 0.0, pair_end_s = 0.0, busy_s = 0.0;
+#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(+ : pair_contacts, wall_contacts, busy_s) if (blocks > 1)
+  {
+    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+    for (int k = me; k < blocks; k += team)
+      block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
+#pragma omp barrier
+    bool any = !have_built;
+    for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
+    if (me == 0) {
+      rebuild = any;
+      if (profile_on_) drift_end_s = seconds_since(t0);
+    }
+    if (!any) {
+      const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
+      for (int k = me; k < blocks; k += team) {
+        const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+        if (b0 == b1) continue;
+        pair_contacts += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                      bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+      }
+      if (profile_on_) busy_s += seconds_since(tp);
+#pragma omp barrier
+      if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
+      for (int k = me; k < blocks; k += team) {
+        const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+        if (b0 == b1) continue;
+        wall_contacts += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                             bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+        reduce_and_kick(b0, b1, true);
+      }
+    }
+  }
+  spheres_stale_ = false;
+  if (profile_on_) profile_.drift_s += drift_end_s;
+  if (rebuild) return false;
+  contacts_ = pair_contacts + wall_contacts;
+  if (profile_on_) {
+    profile_.pairs_s += pair_end_s - drift_end_s;
+    profile_.pairs_busy_s += busy_s / std::max(1, blocks);
+    profile_.gather_s += seconds_since(t0) - pair_end_s;
+  }
+  return true;
 }
 
 void Simulation::ensure_work_blocks() {

@@ -219,6 +219,11 @@ class Simulation {
   /// Half kick, drift and placement of every body's spheres; true when a sphere moved more than
   /// half the skin since the last list build (or the list has no build positions).
   bool kick_drift_place();
+  int drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
+  /// The whole step in one parallel region when no list rebuild is due (false: drifted only).
+  bool step_in_one_region();
+  template <bool Cohesion, bool Rolling>
+  bool step_in_one_region_impl();
   /// Contact forces, body sums and (with kick) the second half kick, in one parallel region.
   void forces_and_kick(bool kick);
   template <bool Cohesion, bool Rolling>
@@ -274,6 +279,7 @@ class Simulation {
   bool cohesion_ = false, rolling_ = false;
   bool wall_rolling_lab_ = false;
   std::size_t sort_every_builds_ = 16;
+  std::vector<std::uint8_t> block_moved_;        // per block: a sphere moved more than skin/2
   std::vector<std::size_t> block_body_;          // thread blocks: bodies [block_body_[k], block_body_[k+1])
   std::pair<std::size_t, std::size_t> blocks_for_;  // (bodies, threads) the blocks were cut for
   bool profile_on_ = false;
