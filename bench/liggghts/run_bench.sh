@@ -17,6 +17,8 @@
 #   TIMEOUT=590        wall-clock limit per run [s].  The raw case at 1 rank (30,000 settle steps)
 #                      needs roughly 10-15 min on the 2-core VM: run it with TIMEOUT=1500.
 #   NSETTLE=, NROT=    override the step counts above for every case
+#   SKINF=1.0          neighbour skin as a fraction of the particle radius (1.0 = d/2, the
+#                      recommended value; 0.5 = d/4, biodem's default)
 #   NICE="nice -n 10"  prefix for the run (set NICE= to run at normal priority)
 #   LIGGGHTS=liggghts  binary
 set -u
@@ -46,7 +48,7 @@ for c in $cases; do
         echo "== $tag: nsettle $ns nrot $nr, $np rank(s), timeout $TIMEOUT s  ($(date '+%F %T'))"
         start=$(date +%s)
         $NICE timeout "$TIMEOUT" mpirun --allow-run-as-root -np "$np" "$LIGGGHTS" -in "in.drum_$c" \
-            -var nsettle "$ns" -var nrot "$nr" -var tag "$tag" -log "logs/$tag.log" \
+            -var nsettle "$ns" -var nrot "$nr" -var tag "$tag" -var skinf "${SKINF:-1.0}" -log "logs/$tag.log" \
             > "logs/$tag.screen" 2>&1
         rc=$?
         [ -f "com_$tag.txt" ] && mv "com_$tag.txt" logs/

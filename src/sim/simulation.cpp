@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/spin_team.hpp"
 #include "integrate/rigid_rotation.hpp"
 
 #include <omp.h>
@@ -367,6 +368,11 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
 
 namespace {
 using Clock = std::chrono::steady_clock;
+/// One thread's tallies in a step (summed after the team's job, in thread order).
+struct alignas(64) PerThread {
+  std::size_t pairs = 0, walls = 0;
+  double busy_s = 0.0;
+};
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 }  // namespace
 
@@ -438,12 +444,13 @@ bool Simulation::kick_drift_place() {
   const int blocks = static_cast<int>(block_body_.size()) - 1;
   const bool have_built = list_.built_at().size() == spheres_.size();
   const double limit2 = list_.rebuild_limit2();
+  std::vector<int> moved_by(static_cast<std::size_t>(std::max(blocks, 1)), 0);
+  team().run(blocks, [&](int me, int team_size) {
+    for (int k = me; k < blocks; k += team_size)
+      moved_by[me] |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
+  });
   int moved = have_built ? 0 : 1;
-#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(| : moved) if (blocks > 1)
-  {
-    const int team = omp_get_num_threads(), me = omp_get_thread_num();
-    for (int k = me; k < blocks; k += team) moved |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
-  }
+  for (int m : moved_by) moved |= m;
   spheres_stale_ = false;
   return moved != 0;
 }
@@ -471,37 +478,40 @@ bool Simulation::step_in_one_region_impl() {
   bool rebuild = false;
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   double drift_end_s = 0.0, pair_end_s = 0.0, busy_s = 0.0;
-#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(+ : pair_contacts, wall_contacts, busy_s) if (blocks > 1)
-  {
-    const int team = omp_get_num_threads(), me = omp_get_thread_num();
-    for (int k = me; k < blocks; k += team)
+  std::vector<PerThread> per(static_cast<std::size_t>(std::max(blocks, 1)));
+  team().run(blocks, [&](int me, int team_size) {
+    for (int k = me; k < blocks; k += team_size)
       block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
-#pragma omp barrier
+    team().barrier();
     bool any = !have_built;
     for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
     if (me == 0) {
       rebuild = any;
       if (profile_on_) drift_end_s = seconds_since(t0);
     }
-    if (!any) {
-      const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
-      for (int k = me; k < blocks; k += team) {
-        const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-        if (b0 == b1) continue;
-        pair_contacts += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                      bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-      }
-      if (profile_on_) busy_s += seconds_since(tp);
-#pragma omp barrier
-      if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
-      for (int k = me; k < blocks; k += team) {
-        const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-        if (b0 == b1) continue;
-        wall_contacts += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                             bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-        reduce_and_kick(b0, b1, true);
-      }
+    if (any) return;
+    const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
+    for (int k = me; k < blocks; k += team_size) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) continue;
+      per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                    bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
     }
+    if (profile_on_) per[me].busy_s = seconds_since(tp);
+    team().barrier();
+    if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
+    for (int k = me; k < blocks; k += team_size) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) continue;
+      per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                           bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+      reduce_and_kick(b0, b1, true);
+    }
+  });
+  for (const PerThread& p : per) {
+    pair_contacts += p.pairs;
+    wall_contacts += p.walls;
+    busy_s += p.busy_s;
   }
   spheres_stale_ = false;
   if (profile_on_) profile_.drift_s += drift_end_s;
@@ -573,28 +583,32 @@ void Simulation::forces_and_kick_impl(bool kick) {
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   double pair_end_s = 0.0, busy_s = 0.0;
 
-  // One parallel region per step: every thread evaluates the list rows of its block, one
-  // barrier, then gathers, adds wall contacts, sums its bodies and kicks them.
-#pragma omp parallel num_threads(blocks) proc_bind(close) reduction(+ : pair_contacts, wall_contacts, busy_s) if (blocks > 1)
-  {
-    const int team = omp_get_num_threads(), me = omp_get_thread_num();
+  // Every thread evaluates the list rows of its block, one barrier, then gathers, adds wall
+  // contacts, sums its bodies and kicks them.
+  std::vector<PerThread> per(static_cast<std::size_t>(std::max(blocks, 1)));
+  team().run(blocks, [&](int me, int team_size) {
     const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
-    for (int k = me; k < blocks; k += team) {
+    for (int k = me; k < blocks; k += team_size) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
       if (b0 == b1) continue;
-      pair_contacts += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
+      per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                     bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
     }
-    if (profile_on_) busy_s += seconds_since(tp);
-#pragma omp barrier
+    if (profile_on_) per[me].busy_s = seconds_since(tp);
+    team().barrier();
     if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
-    for (int k = me; k < blocks; k += team) {
+    for (int k = me; k < blocks; k += team_size) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
       if (b0 == b1) continue;
-      wall_contacts += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
+      per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                            bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
       reduce_and_kick(b0, b1, kick);
     }
+  });
+  for (const PerThread& p : per) {
+    pair_contacts += p.pairs;
+    wall_contacts += p.walls;
+    busy_s += p.busy_s;
   }
   contacts_ = pair_contacts + wall_contacts;
   if (profile_on_ && kick) {

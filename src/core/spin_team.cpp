@@ -1,0 +1,77 @@
+#include "core/spin_team.hpp"
+
+#include <chrono>
+
+namespace biodem {
+namespace {
+// How long an idle worker keeps spinning before it sleeps: longer than the driver's work between
+// two steps (a few microseconds), shorter than a list rebuild's OpenMP loops.
+constexpr std::chrono::microseconds kIdleSpin{200};
+}  // namespace
+
+void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
+  if (n > 255) n = 255;
+  if (n <= 1) {
+    job(0, 1);
+    return;
+  }
+  while (static_cast<int>(workers_.size()) < n - 1) {
+    const int me = static_cast<int>(workers_.size()) + 1;
+    workers_.emplace_back([this, me] { worker_loop(me); });
+    workers_.back().detach();
+  }
+  job_ = &job;
+  n_ = n;
+  finished_.store(0, std::memory_order_relaxed);
+  arrived_.store(0, std::memory_order_relaxed);
+  // The team size travels in the low byte of the generation word, so that a worker reads the
+  // job number and whether it takes part in one atomic load.
+  const std::uint64_t next = ((generation_.load(std::memory_order_relaxed) >> 8) + 1) << 8;
+  generation_.store(next | static_cast<std::uint64_t>(n), std::memory_order_release);
+  generation_.notify_all();
+  job(0, n);
+  while (finished_.load(std::memory_order_acquire) != n - 1) {
+  }
+  job_ = nullptr;
+}
+
+void SpinTeam::barrier() {
+  const std::uint64_t g = barrier_gen_.load(std::memory_order_acquire);
+  if (arrived_.fetch_add(1, std::memory_order_acq_rel) == n_ - 1) {
+    arrived_.store(0, std::memory_order_relaxed);
+    barrier_gen_.fetch_add(1, std::memory_order_release);
+    return;
+  }
+  while (barrier_gen_.load(std::memory_order_acquire) == g) {
+  }
+}
+
+void SpinTeam::worker_loop(int me) {
+  std::uint64_t seen = 0;
+  for (;;) {
+    // Wait for the next job: spin (no PAUSE), then sleep on the generation counter.
+    auto t0 = std::chrono::steady_clock::now();
+    std::uint64_t g;
+    for (std::uint32_t k = 1;; ++k) {
+      g = generation_.load(std::memory_order_acquire);
+      if (g != seen) break;
+      if ((k & 1023u) == 0 && std::chrono::steady_clock::now() - t0 > kIdleSpin) {
+        generation_.wait(seen, std::memory_order_acquire);
+        t0 = std::chrono::steady_clock::now();
+      }
+    }
+    seen = g;
+    const int n = static_cast<int>(g & 0xffu);
+    if (me < n) {
+      (*job_)(me, n);
+      finished_.fetch_add(1, std::memory_order_acq_rel);
+    }
+  }
+}
+
+SpinTeam& team() {
+  static SpinTeam* t = new SpinTeam;  // never destroyed: detached workers may still read it at exit
+  return *t;
+}
+
+}  // namespace biodem
