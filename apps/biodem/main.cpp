@@ -11,12 +11,13 @@
 #include "core/error.hpp"
 
 // How long an idle OpenMP thread spins before it sleeps. GNU OpenMP reads GOMP_SPINCOUNT once,
-// when the library loads (before main), and its default, 300,000 spins (several ms), made
-// two-thread runs on virtual machines bimodal: the same run took 0.55x or 1.25x the one-thread
-// time from one launch to the next (a vCPU that spins on PAUSE for long is descheduled by the
-// hypervisor). 3,000 spins (tens of microseconds) cover the waits inside a step and gave the
-// 2-thread speed-up in every launch (docs/performance.md). So, unless the user set
-// GOMP_SPINCOUNT or OMP_WAIT_POLICY, biodem sets it and executes itself again, once, at start.
+// when the library loads (before main). Its default, 300,000 spins (several ms), kept libgomp's
+// idle threads spinning after each neighbour-list build (an OpenMP loop) while the step's own
+// thread team (core/spin_team.hpp) needed the cores; on the 2-vCPU development VM that, and
+// OpenMP's waiting in general, made 2-thread runs vary from 0.55x to 1.8x the 1-thread speed from
+// launch to launch (docs/performance.md). 3,000 spins is tens of microseconds. So, unless the
+// user set GOMP_SPINCOUNT or OMP_WAIT_POLICY, biodem sets it and executes itself again, once,
+// at start.
 namespace {
 void set_openmp_spin_and_reexec(char** argv) {
 #if defined(__linux__)

@@ -1,6 +1,7 @@
 #include "sim/simulation.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cmath>
@@ -368,6 +369,40 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
 
 namespace {
 using Clock = std::chrono::steady_clock;
+/// Chunks of one pass handed out to the team: thread t starts with its home range of chunks
+/// (t/T to (t+1)/T of them, in order: on a quiet machine each thread keeps its own data in its
+/// cache), then takes what is left of the others' ranges. A thread that is slowed down (a vCPU
+/// that shares its core on a virtual machine) thus loses its chunks to the others instead of
+/// holding up the barrier. Which thread runs a chunk changes nothing in the results.
+class ChunkCursors {
+ public:
+  ChunkCursors(int threads, int chunks) : cursors_(static_cast<std::size_t>(std::max(threads, 1))) {
+    const int t = std::max(threads, 1);
+    for (int r = 0; r < t; ++r) {
+      cursors_[r].next.store(chunks * r / t, std::memory_order_relaxed);
+      cursors_[r].end = chunks * (r + 1) / t;
+    }
+  }
+  template <class F>
+  void for_each(int me, int team_size, F&& f) {
+    const int ranges = static_cast<int>(cursors_.size());
+    for (int r = 0; r < ranges; ++r) {
+      Cursor& c = cursors_[(me + r) % ranges];
+      for (int k = c.next.fetch_add(1, std::memory_order_relaxed); k < c.end;
+           k = c.next.fetch_add(1, std::memory_order_relaxed))
+        f(k);
+    }
+    (void)team_size;
+  }
+
+ private:
+  struct alignas(64) Cursor {
+    std::atomic<int> next{0};
+    int end = 0;
+  };
+  std::vector<Cursor> cursors_;
+};
+
 /// One thread's tallies in a step (summed after the team's job, in thread order).
 struct alignas(64) PerThread {
   std::size_t pairs = 0, walls = 0;
@@ -445,9 +480,11 @@ bool Simulation::kick_drift_place() {
   const bool have_built = list_.built_at().size() == spheres_.size();
   const double limit2 = list_.rebuild_limit2();
   std::vector<int> moved_by(static_cast<std::size_t>(std::max(blocks, 1)), 0);
-  team().run(blocks, [&](int me, int team_size) {
-    for (int k = me; k < blocks; k += team_size)
-      moved_by[me] |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
+  ChunkCursors drift_chunks(threads_, blocks);
+  team().run(threads_, [&](int me, int team_size) {
+    drift_chunks.for_each(me, team_size, [&](int k) {
+      moved_by[k] |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
+    });
   });
   int moved = have_built ? 0 : 1;
   for (int m : moved_by) moved |= m;
@@ -478,10 +515,12 @@ bool Simulation::step_in_one_region_impl() {
   bool rebuild = false;
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   double drift_end_s = 0.0, pair_end_s = 0.0, busy_s = 0.0;
-  std::vector<PerThread> per(static_cast<std::size_t>(std::max(blocks, 1)));
-  team().run(blocks, [&](int me, int team_size) {
-    for (int k = me; k < blocks; k += team_size)
+  std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
+  ChunkCursors drift_chunks(threads_, blocks), pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
+  team().run(threads_, [&](int me, int team_size) {
+    drift_chunks.for_each(me, team_size, [&](int k) {
       block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
+    });
     team().barrier();
     bool any = !have_built;
     for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
@@ -491,22 +530,22 @@ bool Simulation::step_in_one_region_impl() {
     }
     if (any) return;
     const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
-    for (int k = me; k < blocks; k += team_size) {
+    pair_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) continue;
+      if (b0 == b1) return;
       per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                     bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-    }
+    });
     if (profile_on_) per[me].busy_s = seconds_since(tp);
     team().barrier();
     if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
-    for (int k = me; k < blocks; k += team_size) {
+    gather_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) continue;
+      if (b0 == b1) return;
       per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                            bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
       reduce_and_kick(b0, b1, true);
-    }
+    });
   });
   for (const PerThread& p : per) {
     pair_contacts += p.pairs;
@@ -519,7 +558,7 @@ bool Simulation::step_in_one_region_impl() {
   contacts_ = pair_contacts + wall_contacts;
   if (profile_on_) {
     profile_.pairs_s += pair_end_s - drift_end_s;
-    profile_.pairs_busy_s += busy_s / std::max(1, blocks);
+    profile_.pairs_busy_s += busy_s / std::max(1, threads_);
     profile_.gather_s += seconds_since(t0) - pair_end_s;
   }
   return true;
@@ -539,12 +578,14 @@ void Simulation::update_work_blocks() {
   // result is the same for any cuts.
   const std::size_t nb = bodies_.size(), n = spheres_.size();
   const int threads = n >= kParallelThreshold ? std::max(1, omp_get_max_threads()) : 1;
+  const int chunks = threads == 1 ? 1 : threads * kChunksPerThread;
   const bool rows_ok = list_.row_start.size() == n + 1 && list_.rev_start.size() == n + 1 &&
                        wall_contacts_.start.size() == n + 1;
-  block_body_.assign(static_cast<std::size_t>(threads) + 1, nb);
+  block_body_.assign(static_cast<std::size_t>(chunks) + 1, nb);
   block_body_[0] = 0;
-  if (threads == 1 || !rows_ok) {
-    for (int t = 1; t < threads; ++t) block_body_[t] = nb * t / threads;
+  threads_ = threads;
+  if (chunks == 1 || !rows_ok) {
+    for (int t = 1; t < chunks; ++t) block_body_[t] = nb * t / chunks;
     blocks_for_ = {nb, static_cast<std::size_t>(threads)};
     return;
   }
@@ -557,8 +598,8 @@ void Simulation::update_work_blocks() {
                      1.0 * static_cast<double>(s1 - s0);
     prefix[b + 1] = prefix[b] + w;
   }
-  for (int t = 1; t < threads; ++t) {
-    const double target = prefix[nb] * t / threads;
+  for (int t = 1; t < chunks; ++t) {
+    const double target = prefix[nb] * t / chunks;
     block_body_[t] = static_cast<std::size_t>(std::lower_bound(prefix.begin(), prefix.end(), target) - prefix.begin());
     block_body_[t] = std::clamp(block_body_[t], block_body_[t - 1], nb);
   }
@@ -585,25 +626,26 @@ void Simulation::forces_and_kick_impl(bool kick) {
 
   // Every thread evaluates the list rows of its block, one barrier, then gathers, adds wall
   // contacts, sums its bodies and kicks them.
-  std::vector<PerThread> per(static_cast<std::size_t>(std::max(blocks, 1)));
-  team().run(blocks, [&](int me, int team_size) {
+  std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
+  ChunkCursors pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
+  team().run(threads_, [&](int me, int team_size) {
     const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
-    for (int k = me; k < blocks; k += team_size) {
+    pair_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) continue;
+      if (b0 == b1) return;
       per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                     bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-    }
+    });
     if (profile_on_) per[me].busy_s = seconds_since(tp);
     team().barrier();
     if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
-    for (int k = me; k < blocks; k += team_size) {
+    gather_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) continue;
+      if (b0 == b1) return;
       per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                            bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
       reduce_and_kick(b0, b1, kick);
-    }
+    });
   });
   for (const PerThread& p : per) {
     pair_contacts += p.pairs;
@@ -614,7 +656,7 @@ void Simulation::forces_and_kick_impl(bool kick) {
   if (profile_on_ && kick) {
     const double total = seconds_since(t0);
     profile_.pairs_s += pair_end_s;
-    profile_.pairs_busy_s += busy_s / std::max(1, blocks);
+    profile_.pairs_busy_s += busy_s / std::max(1, threads_);
     profile_.gather_s += total - pair_end_s;
   }
 }

@@ -280,7 +280,9 @@ class Simulation {
   bool wall_rolling_lab_ = false;
   std::size_t sort_every_builds_ = 16;
   std::vector<std::uint8_t> block_moved_;        // per block: a sphere moved more than skin/2
-  std::vector<std::size_t> block_body_;          // thread blocks: bodies [block_body_[k], block_body_[k+1])
+  static constexpr int kChunksPerThread = 8;     // work chunks per thread (stealing, see ChunkCursors)
+  int threads_ = 1;                              // team size the chunks were cut for
+  std::vector<std::size_t> block_body_;          // work chunks: bodies [block_body_[k], block_body_[k+1])
   std::pair<std::size_t, std::size_t> blocks_for_;  // (bodies, threads) the blocks were cut for
   bool profile_on_ = false;
   StepProfile profile_;
