@@ -7,14 +7,19 @@ namespace {
 // How long an idle worker keeps spinning before it sleeps: longer than the driver's work between
 // two steps (a few microseconds), shorter than a list rebuild's OpenMP loops.
 constexpr std::chrono::microseconds kIdleSpin{200};
+// Set while this thread runs a one-thread job: its barriers return at once.
+thread_local bool tl_solo = false;
 }  // namespace
 
 void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
   if (n > 255) n = 255;
   if (n <= 1) {
+    tl_solo = true;
     job(0, 1);
+    tl_solo = false;
     return;
   }
+  const std::lock_guard<std::mutex> one_job_at_a_time(mutex_);  // callers on several threads queue
   while (static_cast<int>(workers_.size()) < n - 1) {
     const int me = static_cast<int>(workers_.size()) + 1;
     workers_.emplace_back([this, me] { worker_loop(me); });
@@ -36,6 +41,7 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
 }
 
 void SpinTeam::barrier() {
+  if (tl_solo) return;
   const std::uint64_t g = barrier_gen_.load(std::memory_order_acquire);
   if (arrived_.fetch_add(1, std::memory_order_acq_rel) == n_ - 1) {
     arrived_.store(0, std::memory_order_relaxed);

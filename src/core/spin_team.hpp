@@ -10,13 +10,15 @@
 // or other work between steps.
 //
 // Use: team().run(n, job) runs job(me, n) on n threads (the caller is thread 0) and returns when
-// all have finished; inside the job, barrier() waits until all n threads reached it. Jobs must
-// not nest. The work each thread does is decided by `me` only, so results do not depend on
+// all have finished; inside the job, barrier() waits until all n threads reached it (at once in
+// a one-thread job). Jobs must not nest; jobs of several threads started from several threads
+// run one after the other. The work each thread does is decided by `me` only, so results do not depend on
 // which OS thread runs what.
 #pragma once
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -38,6 +40,7 @@ class SpinTeam {
   alignas(64) std::atomic<std::uint64_t> barrier_gen_{0};  // bumped when a barrier opens
   const std::function<void(int, int)>* job_ = nullptr;
   int n_ = 1;
+  std::mutex mutex_;
 };
 
 /// The process-wide team (created on first use, never destroyed: its threads are detached).

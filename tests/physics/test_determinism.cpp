@@ -176,3 +176,12 @@ TEST(Determinism, SpatialSortingDoesNotChangeTrajectories) {
   EXPECT_LT(worst_x, 1e-9);
   EXPECT_LT(worst_w, 1e-3);  // spins reach ~100 rad/s: 1e-5 relative
 }
+
+// The step's thread team after a 2-thread job must still run a 1-thread job (a scene below the
+// parallel threshold, or --threads 1 after a larger run in the same process): its barriers
+// return at once instead of waiting for a second thread.
+TEST(Determinism, OneThreadJobAfterATwoThreadJobDoesNotWait) {
+  const Snapshot two = run(2, 50);
+  const Snapshot one = run(1, 50);
+  expect_identical(one, two, "1 thread after 2 threads");
+}
