@@ -493,42 +493,40 @@ bool Simulation::kick_drift_place() {
 }
 
 bool Simulation::step_in_one_region() {
-  if (cohesion_) {
-    if (rolling_) return step_in_one_region_impl<true, true>();
-    return step_in_one_region_impl<true, false>();
-  }
-  if (rolling_) return step_in_one_region_impl<false, true>();
-  return step_in_one_region_impl<false, false>();
+  if (cohesion_) return rolling_ ? step_job<true, true>(true, true) : step_job<true, false>(true, true);
+  return rolling_ ? step_job<false, true>(true, true) : step_job<false, false>(true, true);
 }
 
 template <bool Cohesion, bool Rolling>
-bool Simulation::step_in_one_region_impl() {
-  // Drift of every block; barrier; every thread reads all blocks' displacement flags (so all
-  // take the same branch); if no rebuild is due: pair rows, barrier, gather, walls, body sums
-  // and the second kick. Returns false when a rebuild is due (the bodies have drifted).
+bool Simulation::step_job(bool drift, bool kick) {
+  // One job of the thread team. With drift: the drift of every chunk, a barrier, and every
+  // thread reads all chunks' displacement flags (so all take the same branch); if a rebuild is
+  // due the job ends there (returns false: the bodies have drifted). Then: pair rows, a barrier,
+  // gather, walls, body sums and (with kick) the second half kick.
   ensure_work_blocks();
   const int blocks = static_cast<int>(block_body_.size()) - 1;
   const bool have_built = list_.built_at().size() == spheres_.size();
   const double limit2 = list_.rebuild_limit2();
-  block_moved_.assign(static_cast<std::size_t>(blocks), 0);
-  std::size_t pair_contacts = 0, wall_contacts = 0;
+  if (drift) block_moved_.assign(static_cast<std::size_t>(blocks), 0);
   bool rebuild = false;
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
-  double drift_end_s = 0.0, pair_end_s = 0.0, busy_s = 0.0;
+  double drift_end_s = 0.0, pair_end_s = 0.0;
   std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
   ChunkCursors drift_chunks(threads_, blocks), pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
   team().run(threads_, [&](int me, int team_size) {
-    drift_chunks.for_each(me, team_size, [&](int k) {
-      block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
-    });
-    team().barrier();
-    bool any = !have_built;
-    for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
-    if (me == 0) {
-      rebuild = any;
-      if (profile_on_) drift_end_s = seconds_since(t0);
+    if (drift) {
+      drift_chunks.for_each(me, team_size, [&](int k) {
+        block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
+      });
+      team().barrier();
+      bool any = !have_built;
+      for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
+      if (me == 0) {
+        rebuild = any;
+        if (profile_on_) drift_end_s = seconds_since(t0);
+      }
+      if (any) return;
     }
-    if (any) return;
     const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
     pair_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
@@ -544,19 +542,23 @@ bool Simulation::step_in_one_region_impl() {
       if (b0 == b1) return;
       per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                            bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-      reduce_and_kick(b0, b1, true);
+      reduce_and_kick(b0, b1, kick);
     });
   });
-  for (const PerThread& p : per) {
-    pair_contacts += p.pairs;
-    wall_contacts += p.walls;
-    busy_s += p.busy_s;
+  if (drift) {
+    spheres_stale_ = false;
+    if (profile_on_) profile_.drift_s += drift_end_s;
+    if (rebuild) return false;
   }
-  spheres_stale_ = false;
-  if (profile_on_) profile_.drift_s += drift_end_s;
-  if (rebuild) return false;
+  std::size_t pair_contacts = 0, wall_contacts = 0;
+  double busy_s = 0.0;
+  for (const PerThread& q : per) {
+    pair_contacts += q.pairs;
+    wall_contacts += q.walls;
+    busy_s += q.busy_s;
+  }
   contacts_ = pair_contacts + wall_contacts;
-  if (profile_on_) {
+  if (profile_on_ && kick) {
     profile_.pairs_s += pair_end_s - drift_end_s;
     profile_.pairs_busy_s += busy_s / std::max(1, threads_);
     profile_.gather_s += seconds_since(t0) - pair_end_s;
@@ -607,58 +609,8 @@ void Simulation::update_work_blocks() {
 }
 
 void Simulation::forces_and_kick(bool kick) {
-  if (cohesion_) {
-    if (rolling_) forces_and_kick_impl<true, true>(kick);
-    else forces_and_kick_impl<true, false>(kick);
-  } else {
-    if (rolling_) forces_and_kick_impl<false, true>(kick);
-    else forces_and_kick_impl<false, false>(kick);
-  }
-}
-
-template <bool Cohesion, bool Rolling>
-void Simulation::forces_and_kick_impl(bool kick) {
-  ensure_work_blocks();
-  const int blocks = static_cast<int>(block_body_.size()) - 1;
-  std::size_t pair_contacts = 0, wall_contacts = 0;
-  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
-  double pair_end_s = 0.0, busy_s = 0.0;
-
-  // Every thread evaluates the list rows of its block, one barrier, then gathers, adds wall
-  // contacts, sums its bodies and kicks them.
-  std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
-  ChunkCursors pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
-  team().run(threads_, [&](int me, int team_size) {
-    const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
-    pair_chunks.for_each(me, team_size, [&](int k) {
-      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) return;
-      per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                    bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-    });
-    if (profile_on_) per[me].busy_s = seconds_since(tp);
-    team().barrier();
-    if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
-    gather_chunks.for_each(me, team_size, [&](int k) {
-      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) return;
-      per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                           bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-      reduce_and_kick(b0, b1, kick);
-    });
-  });
-  for (const PerThread& p : per) {
-    pair_contacts += p.pairs;
-    wall_contacts += p.walls;
-    busy_s += p.busy_s;
-  }
-  contacts_ = pair_contacts + wall_contacts;
-  if (profile_on_ && kick) {
-    const double total = seconds_since(t0);
-    profile_.pairs_s += pair_end_s;
-    profile_.pairs_busy_s += busy_s / std::max(1, threads_);
-    profile_.gather_s += total - pair_end_s;
-  }
+  if (cohesion_) rolling_ ? step_job<true, true>(false, kick) : step_job<true, false>(false, kick);
+  else rolling_ ? step_job<false, true>(false, kick) : step_job<false, false>(false, kick);
 }
 
 template <bool Cohesion, bool Rolling>

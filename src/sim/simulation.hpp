@@ -222,12 +222,11 @@ class Simulation {
   int drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
   /// The whole step in one parallel region when no list rebuild is due (false: drifted only).
   bool step_in_one_region();
+  /// The team's job: (drift, barrier, rebuild test,) pair rows, barrier, gather/walls/sums/kick.
   template <bool Cohesion, bool Rolling>
-  bool step_in_one_region_impl();
+  bool step_job(bool drift, bool kick);
   /// Contact forces, body sums and (with kick) the second half kick, in one parallel region.
   void forces_and_kick(bool kick);
-  template <bool Cohesion, bool Rolling>
-  void forces_and_kick_impl(bool kick);
   template <bool Cohesion, bool Rolling>
   std::size_t pair_rows(std::size_t i0, std::size_t i1);
   template <bool Cohesion, bool Rolling>
