@@ -3,14 +3,17 @@
 // never stopped a run:
 // - during insertion in waves (issue 10, item 5): the checkpoint carries the insertion state
 //   (particles placed, waves, the random generator, the step of the fall between waves);
-// - a bulk test (issue 9): a [heap] killed while pouring, while the poured beads settle, while
-//   the cylinder is lifted and while the heap comes to rest.
+// - the bulk tests (issue 9): a [heap] killed while pouring, while the poured beads settle, while
+//   the cylinder is lifted and while the heap comes to rest; a [bulk_density] killed while
+//   pouring, while filling and on its last step (before the strike-off); a [shear_box] killed
+//   while pouring, filling, while the gate is lifted and while the flow comes to rest.
 // Every resumed run must end with the outputs of the uninterrupted run, byte for byte: series.csv,
 // trace.csv, both .pvd files, every .vtu, responses.csv. Each kill is checked to have happened
 // where it was aimed (run.log of the killed run), so the test cannot pass without testing it.
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 #include <vector>
@@ -24,6 +27,20 @@ namespace {
 
 const std::string kWaves = source_dir() + "/tests/cases/insertion_waves_tiny.toml";
 const std::string kHeap = source_dir() + "/tests/cases/heap_resume_tiny.toml";
+
+/// A tests/cases bulk test with the output cadence of heap_resume_tiny.toml (samples every 200
+/// steps, snapshots every 2000, checkpoints every 400, trace on), written next to the test outputs.
+std::string with_resume_outputs(const std::string& tiny, const std::string& name) {
+  std::string text = slurp(source_dir() + "/tests/cases/" + tiny);
+  const std::string old_out = "sample_hz = 50.0";
+  const auto at = text.find(old_out);
+  if (at == std::string::npos) return "";
+  text.replace(at, old_out.size(),
+               "sample_hz = 200.0\nsnapshot_every_s = 0.05\ncheckpoint_every_s = 0.01\ntrace = true");
+  const std::string path = (fs::current_path() / (name + ".toml")).string();
+  std::ofstream(path) << text;
+  return path;
+}
 
 struct Kill {
   bool abort;          // true: BIODEM_TEST_ABORT_AT_STEP (exit 137); false: SIGTERM (exit 143)
@@ -145,4 +162,25 @@ TEST(ResumeBulkTest, HeapKilledWhilePouringAndLiftingResumesBitForBit) {
   ASSERT_EQ(rr.status, 0) << rr.output;
   EXPECT_EQ(slurp(d + "/responses.csv"), responses);
   EXPECT_EQ(slurp(d + "/series.csv"), series);
+}
+
+// [bulk_density] (tests/cases/bulk_density_tiny.toml, 1200 beads in three waves at steps 0, 3612
+// and 7224, filled until at rest near step 23400, then struck off): killed while pouring (abort
+// 5000, resumes at 4800), while filling (SIGTERM 12000) and on the last step, before the surplus
+// is struck off and responses.csv is written (SIGTERM).
+TEST(ResumeBulkTest, BulkDensityKilledWhilePouringAndFillingResumesBitForBit) {
+  const std::string c = with_resume_outputs("bulk_density_tiny.toml", "bulk_density_resume");
+  ASSERT_FALSE(c.empty());
+  kill_and_resume(c, "bd_resume", "cpu", {{true, 5000, "insert"}, {false, 12000, "fill"}, {false, 0, "fill"}});
+}
+
+// [shear_box] (tests/cases/shear_box_tiny.toml, 700 beads in two waves at steps 0 and 3362,
+// filled to step ~8100, gate lifted for 8000 steps, flow at rest near step 33600): killed while
+// pouring (abort 2000), while filling (SIGTERM 6000), while the gate is lifted and beads flow into
+// the sink (abort 12000, resumes at 11600) and while the flow comes to rest (abort 25000).
+TEST(ResumeBulkTest, ShearBoxKilledWhilePouringAndGateLiftResumesBitForBit) {
+  const std::string c = with_resume_outputs("shear_box_tiny.toml", "shear_box_resume");
+  ASSERT_FALSE(c.empty());
+  kill_and_resume(c, "sb_resume", "cpu",
+                  {{true, 2000, "insert"}, {false, 6000, "fill"}, {true, 12000, "gate"}, {true, 25000, "rest"}});
 }
