@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io/calib_file.hpp"
 #include "test_util.hpp"
 
 using namespace biodem::testing;
@@ -115,5 +116,22 @@ TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
     EXPECT_NE(r.output.find(expect), std::string::npos) << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
     EXPECT_FALSE(fs::exists(d + "/out/runs")) << to;
+  }
+}
+
+// Every shipped campaign file loads: its tests, bases, targets and parameter keys resolve, and
+// each test's case (base merged in) is valid with the parameters at both ends of their bounds
+// (load_calib checks all of this before a campaign runs anything).
+TEST(Calibrate, ShippedCampaignFilesAreValid) {
+  const std::string dir = source_dir() + "/cases/calibration/";
+  for (const char* f : {"quick/campaign.toml", "quick/twin_campaign.toml", "twin_campaign_raw.toml"}) {
+    try {
+      const biodem::io::CalibConfig c = biodem::io::load_calib(dir + f);
+      EXPECT_EQ(c.tests.size(), 3u) << f;
+      EXPECT_EQ(c.targets.size(), 3u) << f;
+      EXPECT_GE(c.parameters.size(), 3u) << f;
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << f << ": " << e.what();
+    }
   }
 }
