@@ -1,5 +1,6 @@
 // Micro-benchmarks of the per-contact kernel (Google Benchmark): nanoseconds per evaluation of
-// the composed contact model, without and with cohesion and rolling friction. The drum-level
+// the composed contact model, without and with cohesion and rolling friction, and per torque-free
+// rotation step of a clump. The drum-level
 // benchmark against LIGGGHTS is bench/run_bench.sh.
 #include <benchmark/benchmark.h>
 
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include "contact/contact_model.hpp"
+#include "integrate/rigid_rotation.hpp"
 
 using namespace biodem;
 
@@ -37,8 +39,30 @@ void BM_Contact(benchmark::State& st) {
   }
   st.SetItemsProcessed(static_cast<std::int64_t>(st.iterations() * n));
 }
+
+// One torque-free rotation step of a clump (the drift of every needle, every step).
+void BM_FreeRotation(benchmark::State& st) {
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const std::size_t n = 4096;
+  std::vector<Quat> q(n);
+  std::vector<Vec3> l(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    q[k] = normalized(Quat{u(rng), u(rng), u(rng), u(rng)});
+    l[k] = Vec3{u(rng), u(rng), u(rng)} * 1e-9;
+  }
+  const Vec3 inertia{2.1e-12, 2.1e-12, 0.4e-12};
+  for (auto _ : st) {
+    for (std::size_t k = 0; k < n; ++k) {
+      Vec3 w = integrate::free_rotation_step(q[k], l[k], inertia, 1e-5);
+      benchmark::DoNotOptimize(w);
+    }
+  }
+  st.SetItemsProcessed(static_cast<std::int64_t>(st.iterations() * n));
+}
 }  // namespace
 
+BENCHMARK(BM_FreeRotation)->Name("integrate/free_rotation_step");
 BENCHMARK(BM_Contact<false, false>)->Name("contact/hertz_mindlin");
 BENCHMARK(BM_Contact<true, true>)->Name("contact/hertz_mindlin_sjkr_epsd2");
 BENCHMARK_MAIN();

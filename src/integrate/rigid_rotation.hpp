@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "core/quat.hpp"
+#include "core/small_angle.hpp"
 #include "core/vec3.hpp"
 
 namespace biodem::integrate {
@@ -18,17 +19,31 @@ namespace biodem::integrate {
 /// moments `inertia`. Returns the new lab angular velocity.
 BIODEM_HD inline Vec3 free_rotation_step(Quat& q, const Vec3& l, const Vec3& inertia, double h) {
   Vec3 pi = rotate_inverse(q, l);
+  // The reciprocals do not depend on pi: off the chain of dependent sub-steps.
+  const Vec3 inv_i{1.0 / inertia.x, 1.0 / inertia.y, 1.0 / inertia.z};
   auto sub = [&](int k, double hk) {
-    const double theta = hk * pi[k] / inertia[k];
-    Vec3 axis;
-    axis[k] = 1.0;
-    const double c = std::cos(theta), s = std::sin(theta);
+    // One sine and one cosine, of theta/2 (the quaternion's angle); those of theta follow by
+    // the double-angle identities.
+    const double half = 0.5 * hk * pi[k] * inv_i[k];
+    double c2, s2;
+    sincos_small_angle(half, s2, c2);
+    const double c = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;
     const int a = (k + 1) % 3, b = (k + 2) % 3;
     // pi <- Rot(e_k, -theta) pi
     const double pa = pi[a], pb = pi[b];
     pi[a] = c * pa + s * pb;
     pi[b] = -s * pa + c * pb;
-    q = q * axis_angle(axis, theta);
+    // q <- q * (cos theta/2, sin theta/2 e_k), written out:
+    //   w' = c2 w - s2 v_k,  v' = c2 v + s2 (w e_k + v x e_k)
+    double v[3] = {q.x, q.y, q.z};
+    const double w = q.w, vk = v[k], va = v[a], vb = v[b];
+    q.w = c2 * w - s2 * vk;
+    v[k] = c2 * vk + s2 * w;
+    v[a] = c2 * va + s2 * vb;
+    v[b] = c2 * vb - s2 * va;
+    q.x = v[0];
+    q.y = v[1];
+    q.z = v[2];
   };
   sub(0, 0.5 * h);
   sub(1, 0.5 * h);
@@ -36,7 +51,7 @@ BIODEM_HD inline Vec3 free_rotation_step(Quat& q, const Vec3& l, const Vec3& ine
   sub(1, 0.5 * h);
   sub(0, 0.5 * h);
   q = normalized(q);
-  return rotate(q, Vec3{pi.x / inertia.x, pi.y / inertia.y, pi.z / inertia.z});
+  return rotate(q, Vec3{pi.x * inv_i.x, pi.y * inv_i.y, pi.z * inv_i.z});
 }
 
 /// Lab angular velocity from lab angular momentum.
