@@ -13,6 +13,7 @@
 #include "core/quat.hpp"
 #include "core/vec3.hpp"
 #include "integrate/rigid_rotation.hpp"
+#include "integrate/velocity_verlet.hpp"
 #include "walls/wall_geometry.hpp"
 
 #ifndef BIODEM_GPU_NS
@@ -69,16 +70,8 @@ struct KickDrift {
   BodyArrays b;
   double h, dt;
   BIODEM_HD void operator()(std::uint32_t k) const {
-    const double inv_m = 1.0 / b.mass[k];
-    b.velocity[k] += (h * inv_m) * b.force[k];
-    b.position[k] += dt * b.velocity[k];
-    const Vec3 inertia = b.inertia[k];
-    if (b.sphere_count[k] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      b.omega[k] += (h / inertia.x) * b.torque[k];
-    } else {
-      b.ang_momentum[k] += h * b.torque[k];
-      b.omega[k] = integrate::free_rotation_step(b.orientation[k], b.ang_momentum[k], inertia, dt);
-    }
+    integrate::kick_and_drift(b.position[k], b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k],
+                              b.inertia[k], b.sphere_count[k], b.force[k], b.torque[k], h, dt);
   }
 };
 
@@ -387,14 +380,8 @@ struct ReduceKick {
     b.force[k] = f;
     b.torque[k] = t;
     if (!kick) return;
-    b.velocity[k] += (h / b.mass[k]) * f;
-    const Vec3 inertia = b.inertia[k];
-    if (ns == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      b.omega[k] += (h / inertia.x) * t;
-    } else {
-      b.ang_momentum[k] += h * t;
-      b.omega[k] = integrate::angular_velocity_from_momentum(b.orientation[k], b.ang_momentum[k], inertia);
-    }
+    integrate::half_kick(b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k], b.inertia[k], ns, f,
+                         t, h);
   }
 };
 

@@ -10,6 +10,7 @@
 #include "core/parallel.hpp"
 #include "core/spin_team.hpp"
 #include "integrate/rigid_rotation.hpp"
+#include "integrate/velocity_verlet.hpp"
 
 #include <omp.h>
 
@@ -451,17 +452,10 @@ int Simulation::drift_bodies(std::size_t b0, std::size_t b1, bool have_built, do
   const std::vector<Vec3>& built = list_.built_at();
   int moved = 0;
   for (std::size_t b = b0; b < b1; ++b) {
-    const double inv_m = 1.0 / bodies_.mass_kg[b];
-    bodies_.velocity_m_s[b] += (h * inv_m) * bodies_.force_n[b];
-    bodies_.position_m[b] += dt * bodies_.velocity_m_s[b];
-    const Vec3 inertia = bodies_.inertia_kg_m2[b];
-    if (bodies_.sphere_count[b] == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * bodies_.torque_n_m[b];
-    } else {
-      bodies_.angular_momentum_kg_m2_s[b] += h * bodies_.torque_n_m[b];
-      bodies_.angular_velocity_rad_s[b] = integrate::free_rotation_step(
-          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia, dt);
-    }
+    integrate::kick_and_drift(bodies_.position_m[b], bodies_.velocity_m_s[b], bodies_.angular_velocity_rad_s[b],
+                              bodies_.angular_momentum_kg_m2_s[b], bodies_.orientation[b], bodies_.mass_kg[b],
+                              bodies_.inertia_kg_m2[b], bodies_.sphere_count[b], bodies_.force_n[b],
+                              bodies_.torque_n_m[b], h, dt);
     place_spheres_of(b);
     if (have_built) {
       const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
@@ -721,15 +715,8 @@ void Simulation::reduce_and_kick(std::size_t b0, std::size_t b1, bool kick) {
     bodies_.force_n[b] = f;
     bodies_.torque_n_m[b] = t;
     if (!kick) continue;
-    bodies_.velocity_m_s[b] += (h / bodies_.mass_kg[b]) * f;
-    const Vec3 inertia = bodies_.inertia_kg_m2[b];
-    if (ns == 1 && inertia.x == inertia.y && inertia.y == inertia.z) {
-      bodies_.angular_velocity_rad_s[b] += (h / inertia.x) * t;
-    } else {
-      bodies_.angular_momentum_kg_m2_s[b] += h * t;
-      bodies_.angular_velocity_rad_s[b] = integrate::angular_velocity_from_momentum(
-          bodies_.orientation[b], bodies_.angular_momentum_kg_m2_s[b], inertia);
-    }
+    integrate::half_kick(bodies_.velocity_m_s[b], bodies_.angular_velocity_rad_s[b], bodies_.angular_momentum_kg_m2_s[b],
+                         bodies_.orientation[b], bodies_.mass_kg[b], bodies_.inertia_kg_m2[b], ns, f, t, h);
   }
 }
 

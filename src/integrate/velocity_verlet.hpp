@@ -1,0 +1,47 @@
+// The per-body parts of the velocity-Verlet step (src/sim/simulation.hpp), shared by the CPU
+// engine and the GPU kernels. A single sphere with equal principal moments integrates its
+// angular velocity directly; any other body (a clump) integrates its lab angular momentum and
+// turns by the free-rotor splitting of rigid_rotation.hpp.
+#pragma once
+#include <cstdint>
+
+#include "core/hd.hpp"
+#include "core/quat.hpp"
+#include "core/vec3.hpp"
+#include "integrate/rigid_rotation.hpp"
+
+namespace biodem::integrate {
+
+BIODEM_HD inline bool spins_as_sphere(std::uint32_t sphere_count, const Vec3& inertia) {
+  return sphere_count == 1 && inertia.x == inertia.y && inertia.y == inertia.z;
+}
+
+/// First half kick (dt/2 of force and torque) and drift over dt: position, and orientation with
+/// the angular velocity it ends with.
+BIODEM_HD inline void kick_and_drift(Vec3& x, Vec3& v, Vec3& omega, Vec3& l, Quat& q, double mass, const Vec3& inertia,
+                                     std::uint32_t sphere_count, const Vec3& force, const Vec3& torque, double h,
+                                     double dt) {
+  const double inv_m = 1.0 / mass;
+  v += (h * inv_m) * force;
+  x += dt * v;
+  if (spins_as_sphere(sphere_count, inertia)) {
+    omega += (h / inertia.x) * torque;
+  } else {
+    l += h * torque;
+    omega = free_rotation_step(q, l, inertia, dt);
+  }
+}
+
+/// Second half kick (dt/2 of the new force and torque).
+BIODEM_HD inline void half_kick(Vec3& v, Vec3& omega, Vec3& l, const Quat& q, double mass, const Vec3& inertia,
+                                std::uint32_t sphere_count, const Vec3& force, const Vec3& torque, double h) {
+  v += (h / mass) * force;
+  if (spins_as_sphere(sphere_count, inertia)) {
+    omega += (h / inertia.x) * torque;
+  } else {
+    l += h * torque;
+    omega = angular_velocity_from_momentum(q, l, inertia);
+  }
+}
+
+}  // namespace biodem::integrate
