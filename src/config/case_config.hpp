@@ -163,6 +163,11 @@ struct Phase {
   // move_velocity_m_s for the whole phase.
   std::optional<std::size_t> move_wall;
   Vec3d move_velocity_m_s{};
+  // [heap] lift: the wall moves by the height of the settled fill (highest sphere top) plus
+  // move_margin_m, at most duration_s x speed (the cylinder's height); measured when the phase
+  // starts, and the phase lasts as long as the move.
+  bool move_by_fill_height = false;
+  double move_margin_m = 0.0;
   // Bulk tests: the criterion uses the translational kinetic energy only (a sphere spinning about
   // the contact normal meets no resistance in this contact model and would never count as at rest).
   bool translational_criterion = false;
@@ -183,6 +188,9 @@ struct ContactOptions {
   // EPSD2 at a wall: "wall" feeds it the particle's angular velocity relative to the (turning)
   // wall (SPEC 2.3, physically right); "lab" the particle's own, as LIGGGHTS 3.8.0 does.
   WallRollingReference wall_rolling_reference = WallRollingReference::Wall;
+  // SJKR cohesion inside the Coulomb and EPSD2 limits? false (default): the limits take |Hertz +
+  // damping| (SPEC 2.2, LIGGGHTS 3.8.0 `tangential_reduce off`); true: |Hertz + damping - cohesion|.
+  bool tangential_reduce = false;
 };
 
 /// The bulk tests of SPEC 7 (issue 9): a case block [heap], [bulk_density] or [shear_box] that
@@ -192,9 +200,13 @@ struct BulkTest {
   enum class Kind { Heap, BulkDensity, ShearBox };
   Kind kind = Kind::Heap;
   // [heap]: a hollow cylinder (axis +y) on a base disc, lifted after the fill settles.
+  // The lift is the fill height plus lift_margin_m (default: two particle lengths); the surface
+  // is fitted in `sectors` half-planes between fit_from and fit_to of the heap height.
   double cylinder_diameter_m = 0.0, cylinder_height_m = 0.0, lift_speed_m_s = 0.0, base_diameter_m = 0.0;
+  std::optional<double> lift_margin_m;  // resolved by the parser
   std::size_t cylinder_material = 0, base_material = 0;
   double fit_from_fraction = 0.2, fit_to_fraction = 0.8;
+  std::size_t sectors = 8;
   // [bulk_density]: a cylindrical container on its bottom disc, filled until it overflows.
   double container_diameter_m = 0.0, container_height_m = 0.0;
   std::size_t container_material = 0;

@@ -6,7 +6,8 @@
 //     M_r += k_r omega_t dt                  (history, like xi)
 //     if |M_r| > mu_r R* |F_n|: M_r scaled back to that magnitude
 //     torque -M_r on i, +M_r on j
-// F_n is the scalar normal force after cohesion, as in the Coulomb limit.
+// F_n is the same normal force as in the Coulomb limit (Hertz + damping, cohesion not subtracted,
+// unless tangential_reduce).
 #pragma once
 #include "core/hd.hpp"
 #include <cmath>

@@ -4,7 +4,8 @@
 //     xi += v_t dt, then xi -= (xi . n) n      (kept in the tangent plane, length not rescaled)
 //     if |k_t xi| > mu |F_n|:  F_t = -mu |F_n| xi/|xi| (no damping while sliding), xi = -F_t / k_t
 //     else                     F_t = -k_t xi - gamma_t v_t
-// F_n is the scalar normal force after damping and cohesion (the reference formulation).
+// F_n is the scalar normal force of Hertz + damping, cohesion not subtracted (SPEC 2.2, LIGGGHTS
+// 3.8.0 default); contact_model.hpp chooses it (or the reduced force with tangential_reduce).
 #pragma once
 #include "core/hd.hpp"
 #include <cmath>

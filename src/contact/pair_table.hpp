@@ -15,6 +15,11 @@ struct PairParams {
   double rolling_friction = 0.0;
   double cohesion_energy_density_j_m3 = 0.0;
   bool defined = false;
+  // Which normal force bounds the Coulomb and EPSD2 limits (SPEC 2.2). false (the reference,
+  // LIGGGHTS 3.8.0 `tangential_reduce off`): Hertz + damping, cohesion not subtracted. true
+  // (`tangential_reduce on`): Hertz + damping - cohesion. Set for every pair from
+  // [contact] tangential_reduce.
+  bool tangential_reduce = false;
 };
 
 class PairTable {

@@ -5,7 +5,9 @@
 //     A = pi (R_i + R_j - d)(d + R_i - R_j)(d - R_i + R_j)(d + R_i + R_j) / (4 d^2)
 //     (Pachon-Morales et al. 2020 print Eq. 5 without the minus sign that makes A positive)
 //   sphere-wall (distance d from centre to wall):  A = pi (R_i^2 - d^2)
-// It is subtracted from the scalar normal force before friction and rolling limits are taken.
+// It is subtracted from the scalar normal force (the force vector F_n n); the friction and rolling
+// limits keep the force without it (SPEC 2.2: LIGGGHTS 3.8.0 `tangential_reduce off`), unless the
+// case sets [contact] tangential_reduce = true.
 #pragma once
 #include "core/hd.hpp"
 #include <numbers>

@@ -26,6 +26,7 @@ contact::PairTable make_pair_table(const config::CaseConfig& c) {
     q.rolling_friction = p.rolling_friction;
     q.cohesion_energy_density_j_m3 = p.cohesion_energy_density_j_m3;
     q.defined = true;
+    q.tangential_reduce = c.contact.tangential_reduce;
     t.set(p.material_a, p.material_b, q);
   }
   return t;
@@ -80,7 +81,8 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
   sim.set_skin(io::resolved_skin_m(c));
   sim.set_wall_rolling_lab(c.contact.wall_rolling_reference == config::WallRollingReference::Lab);
   {
-    // Where bodies must stay: the drum, or the [run] bounds box of an explicit scene.
+    // Where bodies must stay: the drum, or the [run] bounds box of an explicit scene, or else its
+    // [domain] box (a body outside it would sit in a clamped edge cell of the neighbour grid).
     sim::LostRegion lr;
     lr.remove = c.run.remove_lost_particles;
     if (c.drum) {
@@ -93,6 +95,12 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
       lr.kind = sim::LostRegion::Kind::Box;
       lr.min_m = v3(*c.run.bounds_min_m);
       lr.max_m = v3(*c.run.bounds_max_m);
+    } else if (c.domain) {
+      lr.kind = sim::LostRegion::Kind::Box;
+      lr.min_m = v3(c.domain->min_m);
+      lr.max_m = v3(c.domain->max_m);
+      for (int k = 0; k < 3; ++k) lr.box_periodic[k] = c.domain->periodic[k];
+      lr.box_name = "[domain] box";
     }
     sim.set_lost_region(lr);
   }

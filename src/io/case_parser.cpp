@@ -414,7 +414,8 @@ class CaseParser {
   void parse_contact() {
     const toml::table* t = single("contact");
     if (!t) return;
-    Reader r(file_, *t, "[contact]", false, {"wall_rolling_reference"});
+    Reader r(file_, *t, "[contact]", false, {"wall_rolling_reference", "tangential_reduce"});
+    cfg_.contact.tangential_reduce = r.opt_bool("tangential_reduce").value_or(false);
     if (auto ref = r.opt_string("wall_rolling_reference")) {
       if (*ref == "wall") cfg_.contact.wall_rolling_reference = config::WallRollingReference::Wall;
       else if (*ref == "lab") cfg_.contact.wall_rolling_reference = config::WallRollingReference::Lab;
@@ -856,15 +857,16 @@ class CaseParser {
     const toml::table* t = single(block);
     if (std::string_view(block) == "heap") {
       std::vector<std::string_view> keys = {"cylinder_diameter_m", "cylinder_height_m", "lift_speed_m_s",
-                                            "base_diameter_m", "cylinder_material", "base_material",
-                                            "fit_from_fraction", "fit_to_fraction"};
+                                            "lift_margin_m", "base_diameter_m", "cylinder_material",
+                                            "base_material", "fit_from_fraction", "fit_to_fraction", "sectors"};
       keys.insert(keys.end(), rest_keys.begin(), rest_keys.end());
       Reader r(file_, *t, path, false, keys);
       b.kind = config::BulkTest::Kind::Heap;
-      b.cylinder_diameter_m = r.real_or("cylinder_diameter_m", 0.08, kPositive);
-      b.cylinder_height_m = r.real_or("cylinder_height_m", 0.16, kPositive);
-      b.lift_speed_m_s = r.real_or("lift_speed_m_s", 0.1, kPositive);
-      b.base_diameter_m = r.real_or("base_diameter_m", 0.32, kPositive);
+      b.cylinder_diameter_m = r.real_or("cylinder_diameter_m", 0.06, kPositive);
+      b.cylinder_height_m = r.real_or("cylinder_height_m", 2.5 * b.cylinder_diameter_m, kPositive);
+      b.lift_speed_m_s = r.real_or("lift_speed_m_s", 0.05, kPositive);
+      if (r.node("lift_margin_m")) b.lift_margin_m = r.real_or("lift_margin_m", 0.0, kPositive);
+      b.base_diameter_m = r.real_or("base_diameter_m", 4.0 * b.cylinder_diameter_m, kPositive);
       if (!(b.base_diameter_m > b.cylinder_diameter_m))
         r.fail("base_diameter_m", "must exceed cylinder_diameter_m (the heap spreads beyond the cylinder)");
       b.cylinder_material = material_ref(r, "cylinder_material");
@@ -872,6 +874,12 @@ class CaseParser {
       b.fit_from_fraction = r.real_or("fit_from_fraction", 0.2, kUnitOpen);
       b.fit_to_fraction = r.real_or("fit_to_fraction", 0.8, kUnitOpen);
       if (!(b.fit_to_fraction > b.fit_from_fraction)) r.fail("fit_to_fraction", "must exceed fit_from_fraction");
+      if (r.node("sectors")) {
+        const double k = r.real_or("sectors", 8.0, kPositive);
+        if (!(k >= 4.0 && k <= 8.0 && k == std::floor(k)))
+          r.fail("sectors", "must be a whole number from 4 to 8 (vertical half-planes of the surface fit, SPEC 7)");
+        b.sectors = static_cast<std::size_t>(k);
+      }
       read_rest(r);
       config::Wall base = wall(config::WallKind::Disc, b.base_material, {0, 0, 0}, {0, 1, 0});
       base.radius_m = 0.5 * b.base_diameter_m;
@@ -887,9 +895,9 @@ class CaseParser {
       ins.region_axis = {0, 1, 0};
       ins.region_radius_m = 0.5 * b.cylinder_diameter_m;
       ins.region_height_m = b.cylinder_height_m;
-      cfg_.phases = {phase_rest("fill", b.max_fill_s),
-                     phase_move("lift", tube_index, b.lift_speed_m_s, b.cylinder_height_m),
-                     phase_rest("rest", b.max_rest_s)};
+      config::Phase lift = phase_move("lift", tube_index, b.lift_speed_m_s, b.cylinder_height_m);
+      lift.move_by_fill_height = true;  // margin resolved with the particle size
+      cfg_.phases = {phase_rest("fill", b.max_fill_s), lift, phase_rest("rest", b.max_rest_s)};
     } else if (std::string_view(block) == "bulk_density") {
       std::vector<std::string_view> keys = {"container_diameter_m", "container_height_m", "container_material",
                                             "pour_height_factor"};
@@ -961,6 +969,13 @@ class CaseParser {
     b.rest_mean_kinetic_energy_j = b.rest_fraction * (m / w) * g * (d / w);
     for (auto& p : cfg_.phases)
       if (p.until_mean_kinetic_energy_j) p.until_mean_kinetic_energy_j = b.rest_mean_kinetic_energy_j;
+    if (b.kind == config::BulkTest::Kind::Heap) {
+      double length = 0.0;  // the longest poured particle (bounding diameter)
+      for (const auto& p : cfg_.populations) length = std::max(length, 2.0 * templates_.at(p.shape).bounding_radius_m);
+      if (!b.lift_margin_m) b.lift_margin_m = 2.0 * length;
+      for (auto& p : cfg_.phases)
+        if (p.move_by_fill_height) p.move_margin_m = *b.lift_margin_m;
+    }
   }
 
   void parse_particles() {

@@ -162,6 +162,11 @@ std::string describe_case(const config::CaseConfig& c) {
              ? "lab (EPSD2 at walls with the particle's own spin, as LIGGGHTS 3.8.0)"
              : "wall (EPSD2 at walls with the spin relative to the wall)")
      << "\n";
+  os << "contact: tangential_reduce = "
+     << (c.contact.tangential_reduce
+             ? "true (friction and rolling limits from |Hertz + damping - cohesion|)"
+             : "false (friction and rolling limits from |Hertz + damping|, cohesion kept out, as LIGGGHTS 3.8.0)")
+     << "\n";
 
   os << "materials:\n";
   for (const auto& m : c.materials) {

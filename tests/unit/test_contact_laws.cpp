@@ -190,7 +190,7 @@ struct Composed {
 // Normal = elastic - damping*v_n - cohesion: 1.333333 + 0.556299 * 0.02 (- 1) N.
 // Tangential: xi -> (5.1e-7, 3e-7, 0), spring -k_t xi = (-0.1632, -0.096) N, |.| = 0.189342 N.
 // Without cohesion mu |F_n| = 0.403338 N: sticks, F_t = spring - gamma_t v_t.
-// With cohesion mu |F_n| = 0.3 * 0.344459 = 0.103338 N: slides, F_t = spring scaled to that.
+// With cohesion and tangential_reduce, mu |F_n| = 0.3 * 0.344459 = 0.103338 N: slides.
 TEST(ComposedContact, NoCohesionNoRollingOnReferenceConfiguration) {
   Composed c;
   const ContactOutput out = evaluate_contact<false, false>(c.g, c.p, c.h, 1e-5, kDt);
@@ -205,21 +205,51 @@ TEST(ComposedContact, NoCohesionNoRollingOnReferenceConfiguration) {
 }
 
 TEST(ComposedContact, CohesionAndRollingOnReferenceConfiguration) {
+  // Reference rule (SPEC 2.2, LIGGGHTS 3.8.0 tangential_reduce off): the normal force loses the
+  // cohesion (1.344459 - 1 = 0.344459 N) but the limits keep Hertz + damping: mu |F_n| = 0.403338 N
+  // > |spring| = 0.189342 N, so the contact sticks exactly as without cohesion.
   Composed c;
   const ContactOutput out = evaluate_contact<true, true>(c.g, c.p, c.h, 1e-5, kDt);
   const double fn = 0.3444593177596402;  // after cohesion
   expect_rel(out.normal_force_n, fn);
-  // Friction limit from |F_n| after cohesion: the contact slides.
-  const Vec3 ft{-0.08907038151208088, -0.05239434206592993, 0.0};
+  expect_rel(out.limit_force_n, 1.3444593177596402);
+  const Vec3 ft{-0.1632 - 0.01 * kGammaT, -0.096, 0.0};
   expect_vec(out.force_i, ft + Vec3{0, 0, fn}, 1e-14);
-  expect_rel(norm(ft), 0.3 * fn);
-  expect_vec(c.h.xi, {2.7834494222525277e-07, 1.6373231895603104e-07, 0.0}, 1e-20);
+  expect_vec(c.h.xi, {5.1e-7, 3e-7, 0.0}, 1e-20);
   // Rolling: M_r = (1e-6, 0, 0) + k_t R*^2 dt (0, 5, 0) = (1e-6, 1.6e-6, 0), below the limit
-  // mu_r R* |F_n| = 0.2 * 1e-3 * 0.344459 = 6.89e-5 N m; -M_r on i, +M_r on j.
+  // mu_r R* |F_n| = 0.2 * 1e-3 * 1.344459 = 2.69e-4 N m; -M_r on i, +M_r on j.
   const Vec3 mr{1e-6, 1.6e-6, 0.0};
   expect_vec(c.h.m_r, mr, 1e-19);
   expect_vec(out.torque_i, cross(c.g.lever_i, ft) - mr, 1e-16);
   expect_vec(out.torque_j, cross(c.g.lever_j, -ft) + mr, 1e-16);
+}
+
+TEST(ComposedContact, TangentialReduceTakesTheLimitsAfterCohesion) {
+  // [contact] tangential_reduce = true (LIGGGHTS tangential_reduce on): mu |F_n| = 0.3 * 0.344459
+  // = 0.103338 N < |spring| = 0.189342 N, so the contact slides at that force.
+  Composed c;
+  c.p.tangential_reduce = true;
+  const ContactOutput out = evaluate_contact<true, true>(c.g, c.p, c.h, 1e-5, kDt);
+  const double fn = 0.3444593177596402;
+  expect_rel(out.normal_force_n, fn);
+  expect_rel(out.limit_force_n, fn);
+  const Vec3 ft{-0.08907038151208088, -0.05239434206592993, 0.0};
+  expect_vec(out.force_i, ft + Vec3{0, 0, fn}, 1e-14);
+  expect_rel(norm(ft), 0.3 * fn);
+  expect_vec(c.h.xi, {2.7834494222525277e-07, 1.6373231895603104e-07, 0.0}, 1e-20);
+  // Rolling limit mu_r R* |F_n| = 0.2 * 1e-3 * 0.344459 = 6.89e-5 N m: a rolling spring of
+  // 1e-4 N m is scaled back to it (with the reference rule the limit would be 2.69e-4: kept).
+  Composed d;
+  d.p.tangential_reduce = true;
+  d.h.m_r = {1e-4, 0.0, 0.0};
+  d.g.w_rel = {};
+  evaluate_contact<true, true>(d.g, d.p, d.h, 1e-5, kDt);
+  expect_vec(d.h.m_r, {0.2 * kR * fn, 0.0, 0.0}, 1e-19);
+  Composed e;
+  e.h.m_r = {1e-4, 0.0, 0.0};
+  e.g.w_rel = {};
+  evaluate_contact<true, true>(e.g, e.p, e.h, 1e-5, kDt);
+  expect_vec(e.h.m_r, {1e-4, 0.0, 0.0}, 1e-19);
 }
 
 TEST(ComposedContact, TensileNormalForceIsNotClampedAndLimitsUseItsMagnitude) {
