@@ -56,6 +56,8 @@ struct PhasePlan {
   bool translational = false;            // criterion on translational kinetic energy only
   std::optional<std::size_t> move_wall;  // bulk tests: wall translated during the phase
   Vec3 move_velocity_m_s;
+  bool move_by_fill_height = false;  // [heap] lift: by the fill height + margin (at most max_steps)
+  double move_margin_m = 0.0;
 };
 
 std::uint64_t steps_for(double seconds, double dt) {
@@ -72,6 +74,8 @@ std::vector<PhasePlan> plan_phases(const config::CaseConfig& c) {
     q.move_wall = p.move_wall;
     q.translational = p.translational_criterion;
     q.move_velocity_m_s = {p.move_velocity_m_s[0], p.move_velocity_m_s[1], p.move_velocity_m_s[2]};
+    q.move_by_fill_height = p.move_by_fill_height;
+    q.move_margin_m = p.move_margin_m;
     if (p.until_mean_kinetic_energy_j) {
       q.criterion = true;
       q.ke_threshold_j = *p.until_mean_kinetic_energy_j;
@@ -592,11 +596,21 @@ void Runner::write_responses() {
   double d = 0.0;  // profile bin: the largest volume-equivalent diameter of the poured shapes
   for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
   if (b.kind == config::BulkTest::Kind::Heap) {
-    const auto h = scenario::measure_heap(s.position_m, s.radius_m, {0, 0, 0}, {0, 1, 0}, d, b.fit_from_fraction,
-                                          b.fit_to_fraction);
+    scenario::HeapOptions o;
+    o.bin_m = d;
+    o.sectors = b.sectors;
+    o.fit_from = b.fit_from_fraction;
+    o.fit_to = b.fit_to_fraction;
+    const auto h = scenario::measure_heap(s.position_m, s.radius_m, s.body, {0, 0, 0}, {0, 1, 0}, o);
     rows.push_back({"angle_of_repose_deg", h.angle_deg, "deg"});
+    rows.push_back({"angle_of_repose_spread_deg", h.angle_spread_deg, "deg"});
+    rows.push_back({"angle_of_repose_min_deg", h.angle_min_deg, "deg"});
+    rows.push_back({"angle_of_repose_max_deg", h.angle_max_deg, "deg"});
+    rows.push_back({"heap_sectors_fitted", static_cast<double>(h.sectors_fitted), "-"});
     rows.push_back({"heap_height_m", h.height_m, "m"});
     rows.push_back({"heap_base_radius_m", h.base_radius_m, "m"});
+    rows.push_back({"heap_bodies", static_cast<double>(h.heap_bodies), "-"});
+    rows.push_back({"stray_bodies", static_cast<double>(h.stray_bodies), "-"});
     rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
   } else if (b.kind == config::BulkTest::Kind::BulkDensity) {
     const double R = 0.5 * b.container_diameter_m, H = b.container_height_m;
@@ -653,18 +667,40 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "phase " << index + 1 << " '" << p.name << "' " << (start_step ? "resumes" : "starts") << " at t = "
        << sim_.time_s() << " s (step " << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
   std::uint64_t k = start_step;
+  std::uint64_t max_steps = p.max_steps;
   if (p.move_wall && start_step == 0) {
-    const double t_end = sim_.time_s() + static_cast<double>(p.max_steps) * sim_.dt_s();
+    if (p.move_by_fill_height) {
+      // [heap]: lift by the settled fill's height plus the margin (SPEC 7), not the whole tube.
+      double fill_top = 0.0;
+      const auto& sp = sim_.spheres();
+      for (std::size_t i = 0; i < sp.size(); ++i) fill_top = std::max(fill_top, sp.position_m[i].y + sp.radius_m[i]);
+      const double speed = norm(p.move_velocity_m_s);
+      const double full = static_cast<double>(p.max_steps) * sim_.dt_s() * speed;
+      const double lift = std::min(full, fill_top + p.move_margin_m);
+      max_steps = std::max<std::uint64_t>(1, steps_for(lift / speed, sim_.dt_s()));
+      const double diameter = cfg_.bulk_test ? cfg_.bulk_test->cylinder_diameter_m : 0.0;
+      log_ << "heap fill: height " << fill_top << " m = " << (diameter > 0.0 ? fill_top / diameter : 0.0)
+           << " cylinder diameters; lift by " << lift << " m (fill + margin " << p.move_margin_m << " m"
+           << (lift < fill_top + p.move_margin_m ? ", capped at the cylinder height" : "") << ")\n";
+      if (diameter > 0.0 && (fill_top < 1.5 * diameter || fill_top > 2.5 * diameter))
+        log_ << "WARNING: the fill stands " << fill_top / diameter
+             << " cylinder diameters high; the heap procedure fills to about 2 (a full cone must fit): change [insertion] count\n";
+    }
+    const double t_end = sim_.time_s() + static_cast<double>(max_steps) * sim_.dt_s();
     sim_.start_wall_translation(*p.move_wall, p.move_velocity_m_s, sim_.time_s(), t_end);
     log_ << "wall " << *p.move_wall + 1 << " moves at (" << p.move_velocity_m_s.x << ", " << p.move_velocity_m_s.y
          << ", " << p.move_velocity_m_s.z << ") m/s until t = " << t_end << " s\n";
+  } else if (p.move_wall && p.move_by_fill_height) {
+    // Resumed during the lift: its length is the wall's schedule, which the checkpoint holds.
+    const auto& w = sim_.walls()[*p.move_wall];
+    max_steps = steps_for(w.move_end_s - w.move_start_s, sim_.dt_s());
   }
   log_.flush();  // a run killed during the phase still says which phase it was in
   sim_.set_profile(opt_.profile && !dev_);
   sim_.reset_profile();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
-  while (!settled && k < p.max_steps) {
+  while (!settled && k < max_steps) {
     advance();
     ++k;
     if (p.criterion) {
