@@ -198,13 +198,13 @@ void Simulation::check_lost_bodies() {
       lost = lost || x.x * x.x + x.y * x.y > (r.radius_m + rb) * (r.radius_m + rb);
       if (!r.periodic_z) lost = lost || x.z < r.z0_m - rb || x.z > r.z1_m + rb;
     } else {
-      for (int k = 0; k < 3; ++k) lost = lost || x[k] < r.min_m[k] || x[k] > r.max_m[k];
+      for (int k = 0; k < 3; ++k) lost = lost || (!r.box_periodic[k] && (x[k] < r.min_m[k] || x[k] > r.max_m[k]));
     }
     if (!lost) continue;
     if (!r.remove) {
       char buf[256];
       std::snprintf(buf, sizeof buf, "body %u was lost at t = %.6g s: its centre (%.6g, %.6g, %.6g) m is outside the %s",
-                    bodies_.id[b], time_s_, x.x, x.y, x.z, r.kind == LostRegion::Kind::Drum ? "drum" : "[run] bounds box");
+                    bodies_.id[b], time_s_, x.x, x.y, x.z, r.kind == LostRegion::Kind::Drum ? "drum" : r.box_name);
       throw Error(std::string(buf) + " (too large a time step, or an opening in the walls?); [run] lost_particles = \"remove\" removes such bodies instead");
     }
     flag[b] = 1;

@@ -72,13 +72,16 @@ struct WallContacts {
 
 /// Where bodies must stay (issue 10, "lost particles"): inside the drum (centre no farther from
 /// the axis than the mantle radius plus the body's bounding radius, and, with end plates,
-/// between them within that radius) or inside an explicit box. Checked at every neighbour build.
+/// between them within that radius) or inside an explicit box: the [run] bounds box, or else the
+/// [domain] box of an explicit scene (its periodic axes excepted). Checked at every neighbour build.
 struct LostRegion {
   enum class Kind { None, Drum, Box };
   Kind kind = Kind::None;
   double radius_m = 0.0, z0_m = 0.0, z1_m = 0.0;  // drum: axis z through the origin
   bool periodic_z = false;
-  Vec3 min_m, max_m;  // box
+  Vec3 min_m, max_m;                         // box
+  bool box_periodic[3] = {false, false, false};  // box: axes not checked (periodic [domain] axes)
+  const char* box_name = "[run] bounds box";     // named in the error
   bool remove = false;  // false: a lost body stops the run with an error; true: it is removed and counted
 };
 

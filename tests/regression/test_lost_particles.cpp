@@ -111,6 +111,32 @@ TEST(LostParticles, BadKeysAreOneLineErrors) {
   EXPECT_NE(r.output.find("[run].lost_particles"), std::string::npos) << r.output;
 }
 
+// Issue 20 item 7: an explicit scene with a [domain] box and no [run] bounds: the body fired out of
+// it at 5 m/s (it crosses the -x face after about 1.4 ms) stops the run with one line naming it,
+// on both engines (before, the run ended with status 0 and nothing said). Along a periodic axis
+// of the domain the body wraps round and is not lost.
+std::string domain_scene(const std::string& periodic) {
+  std::string s = scene("");
+  const auto a = s.find("bounds_min_m"), b = s.find("[[material]]");
+  s.erase(a, b - a);
+  s.replace(s.find("velocity_m_s = [-2.0"), 20, "velocity_m_s = [-5.0");
+  return s + "\n[domain]\nmin_m = [-0.01, -0.002, -0.01]\nmax_m = [0.01, 0.02, 0.01]\n" + periodic;
+}
+
+TEST(LostParticles, DomainBoxStopsTheRunOnBothEngines) {
+  for (const std::string device : {"cpu", "gpu-emulated"}) {
+    SCOPED_TRACE(device);
+    const std::string d = write_case("lost_domain_" + device, domain_scene(""));
+    auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1 --device " + device);
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("body 2 was lost at t = "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("is outside the [domain] box"), std::string::npos) << r.output;
+  }
+  const std::string d = write_case("lost_domain_periodic", domain_scene("periodic = [true, false, false]\n"));
+  auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1");
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
 // The drum region: a body outside the mantle by more than its radius is lost; one touching the
 // mantle is not.
 TEST(LostParticles, DrumRegionOnTheEngine) {
