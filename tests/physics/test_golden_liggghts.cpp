@@ -50,23 +50,40 @@ struct Errors {
   double x = 0.0, v = 0.0, w = 0.0;  // largest absolute deviation over all frames and atoms
 };
 
-/// Steps `s` through the golden frames (atom id k = body id k - 1) and returns the deviations.
-Errors compare(sim::Simulation& s, const Golden& g) {
-  Errors e;
+/// Steps `s` through the golden frames and records its states there (atom id k = body id k - 1).
+Golden record(sim::Simulation& s, const Golden& g) {
+  Golden out;
   for (const auto& [step, atoms] : g) {
     while (static_cast<long>(s.step_count()) < step) s.step();
     for (const auto& [id, fr] : atoms) {
       std::size_t b = 0;
       while (b < s.bodies().size() && s.bodies().id[b] != static_cast<std::uint32_t>(id - 1)) ++b;
       EXPECT_LT(b, s.bodies().size());
-      if (b == s.bodies().size()) return e;
-      e.x = std::max(e.x, norm(s.bodies().position_m[b] - fr.x));
-      e.v = std::max(e.v, norm(s.bodies().velocity_m_s[b] - fr.v));
-      e.w = std::max(e.w, norm(s.bodies().angular_velocity_rad_s[b] - fr.w));
+      if (b == s.bodies().size()) return out;
+      out[step][id] = {s.bodies().position_m[b], s.bodies().velocity_m_s[b], s.bodies().angular_velocity_rad_s[b]};
     }
   }
+  return out;
+}
+
+/// Largest deviations of `mine` from the reference over the reference's frames and atoms.
+Errors deviation(const Golden& mine, const Golden& ref) {
+  Errors e;
+  for (const auto& [step, atoms] : ref)
+    for (const auto& [id, fr] : atoms) {
+      const auto fs = mine.find(step);
+      EXPECT_TRUE(fs != mine.end() && fs->second.count(id)) << step << " " << id;
+      if (fs == mine.end() || !fs->second.count(id)) return e;
+      const Frame& m = fs->second.at(id);
+      e.x = std::max(e.x, norm(m.x - fr.x));
+      e.v = std::max(e.v, norm(m.v - fr.v));
+      e.w = std::max(e.w, norm(m.w - fr.w));
+    }
   return e;
 }
+
+/// Steps `s` through the golden frames and returns the deviations.
+Errors compare(sim::Simulation& s, const Golden& g) { return deviation(record(s, g), g); }
 
 }  // namespace
 
@@ -103,99 +120,358 @@ TEST(GoldenLiggghts, ObliqueFrictionalSphereSphereImpact) {
   EXPECT_LT(e.w, 1e-6);
 }
 
+// --- Cohesive scenes (SJKR, with and without EPSD2; issue 10 item 9, issue 20) ---------------
+// The reference runs them with LIGGGHTS' default `tangential_reduce off`: the Coulomb limit
+// mu |F_n| and the EPSD2 limit mu_r R* |F_n| take F_n = Hertz + damping, the SJKR attraction not
+// subtracted (it acts on the normal motion only). biodem's default is the same rule (SPEC 2.2,
+// contact_model.hpp). Each scene is compared in full (position, velocity and spin of every atom
+// in every frame), and run again with the reduced rule (PairParams::tangential_reduce,
+// [contact] tangential_reduce = true), which must not reproduce it. The rolling scenes were also
+// run in LIGGGHTS with `tangential_reduce on`; biodem's reduced rule reproduces those. From the
+// frames themselves (central differences) the tests also show that the friction force while
+// sliding is mu (Hertz + damping) and the rolling torque while rolling mu_r R* (Hertz + damping),
+// on both codes.
+// Two known differences from LIGGGHTS (docs/contact_models.md, section 10) leave residuals above
+// round-off in three scenes; both were confirmed by emulating LIGGGHTS' behaviour in a scratch
+// build, which brought every scene here to round-off (at most 4e-20 m, 3e-17 m/s, 4e-14 rad/s
+// for the wall scenes, 8e-17 m, 4e-14 m/s, 4e-11 rad/s for the pairs):
+// - set-up force (scenes 2 and 2b, which start in contact): for the first half kick LIGGGHTS
+//   computes the tangential force from the stored spring without the step's increment (its
+//   `shearupdate` is 0 at set-up) but EPSD2 with it; biodem evaluates both with the increment
+//   (and restores the history afterwards, Simulation::refresh). The first half kick differs by
+//   k_t v_t dt^2 / (2 m): 4e-9 m/s and 1e-5 rad/s, which then stay.
+// - EPSD2 at a wall (scene 2d): LIGGGHTS feeds the rolling spring the spin times
+//   (r - delta/2)/(r - delta). The factor drops out while the spring is at its limit, which in
+//   this scene it is except during the first ~20 steps of contact (there the damping term keeps
+//   the limit high).
+
 namespace {
 
 constexpr double kSjkrR = 1e-3, kSjkrRho = 1000.0, kSjkrMu = 0.3, kSjkrE = 0.5;
-const Material kSjkrMat{1e7, 0.3, kSjkrRho};
+const Material kSjkrMat{1e7, 0.3, kSjkrRho};  // every sphere and wall of the cohesive scenes
+constexpr double kBigR = 1e-2, kBigRho = 1e9;  // the big, nearly immovable sphere of the pair scenes
 
-/// Scene 2 (sjkr_pull_off.in): a sphere just inside a ceiling plane z = 0, moving away from it.
-/// Returns biodem's states at the golden frames.
-Golden sjkr_pull_off(double ced, const Golden& g) {
+/// The pair table with the rule of the friction and rolling limits set on every entry.
+contact::PairTable with_rule(contact::PairTable t, bool tangential_reduce) {
+  for (std::size_t a = 0; a < t.materials(); ++a)
+    for (std::size_t b = a; b < t.materials(); ++b) {
+      contact::PairParams p = t(a, b);
+      p.tangential_reduce = tangential_reduce;
+      t.set(a, b, p);
+    }
+  return t;
+}
+
+/// One sphere (atom 1, d = 2 mm) below the ceiling plane z = 0 (normal -z), started from the
+/// first golden frame; biodem's states at the golden frames.
+Golden ceiling_scene(const Golden& g, const Interaction& c, double dt, const Vec3& gravity, bool reduce) {
   SimSetup su;
   su.particle = kSjkrMat;
   su.wall = kSjkrMat;
-  su.particle_particle = {kSjkrE, kSjkrMu, 0.0, ced};
-  su.particle_wall = su.particle_particle;
+  su.particle_particle = c;
+  su.particle_wall = c;
   su.templates = {sphere_template(kSjkrR)};
-  su.dt_s = 1e-7;
-  sim::Simulation s = make_simulation(su);
+  sim::Simulation s(su.templates, {kSjkrRho, 0.0}, with_rule(pair_table(su), reduce), dt, gravity);
   s.add_wall(plane_wall({0, 0, 0}, {0, 0, -1}));
   const Frame& f = g.begin()->second.at(1);
   add_particle(s, 0, f.x, f.v, f.w);
-  Golden out;
-  for (const auto& [step, atoms] : g) {
-    while (static_cast<long>(s.step_count()) < step) s.step();
-    out[step][1] = {s.bodies().position_m[0], s.bodies().velocity_m_s[0], s.bodies().angular_velocity_rad_s[0]};
+  return record(s, g);
+}
+
+/// The big sphere (atom 1: d = 20 mm, rho = 1e9) and the small one (atom 2: d = 2 mm,
+/// rho = 1000), no gravity, started from the first golden frame; biodem's states at the frames.
+Golden pair_scene(const Golden& g, const Interaction& c, double dt, bool reduce) {
+  const Material big{kSjkrMat.young_pa, kSjkrMat.poisson, kBigRho};
+  contact::PairTable t(3);  // material 0: small spheres, 2: the big one (1: walls, unused)
+  t.set(0, 0, pair_params(kSjkrMat, kSjkrMat, c));
+  t.set(0, 2, pair_params(kSjkrMat, big, c));
+  t.set(2, 2, pair_params(big, big, c));
+  sim::Simulation s({sphere_template(kSjkrR), sphere_template(kBigR)}, {kSjkrRho, 0.0, kBigRho},
+                    with_rule(t, reduce), dt, {});
+  for (int id : {1, 2}) {
+    const Frame& f = g.begin()->second.at(id);
+    sim::BodyInit b;
+    b.shape = id == 1 ? 1 : 0;
+    b.material = id == 1 ? 2 : 0;
+    b.position_m = f.x;
+    b.velocity_m_s = f.v;
+    b.angular_velocity_rad_s = f.w;
+    EXPECT_EQ(s.add_body(b), static_cast<std::uint32_t>(id - 1));
+  }
+  return record(s, g);
+}
+
+/// The contact of one sphere as its frames show it at `step` (central differences over the
+/// neighbouring frames, `every` steps of dt apart): the tangential force on it, the rolling
+/// torque on it (its spin change less the moment of that force about its centre, the part
+/// along n dropped), and, from the overlap and the normal speed (SPEC 2.1-2.4), the normal
+/// force of Hertz + damping and the SJKR attraction.
+struct ContactLook {
+  double f_t, m_r, hertz_damping, cohesion;
+};
+struct Probe {
+  int atom;    // the sphere looked at (d = 2 mm, rho = 1000)
+  int other;   // the big sphere's atom id, or 0 for the ceiling plane z = 0
+  long every;  // steps between frames
+  double dt, ced;
+};
+ContactLook look(const Golden& g, long step, const Probe& p) {
+  const Frame &a = g.at(step - p.every).at(p.atom), &b = g.at(step).at(p.atom), &c = g.at(step + p.every).at(p.atom);
+  const double r = kSjkrR, m = sphere_mass_kg(r, kSjkrRho), inertia = 0.4 * m * r * r;
+  Vec3 n;
+  double delta, r_eff, m_eff, v_n, area;
+  if (p.other == 0) {
+    n = {0, 0, -1};
+    const double gap = -b.x.z;
+    delta = r - gap;
+    r_eff = r;
+    m_eff = m;
+    v_n = dot(b.v, n);
+    area = std::numbers::pi * (r * r - gap * gap);
+  } else {
+    const Frame& o = g.at(step).at(p.other);
+    const double r1 = kBigR, m1 = sphere_mass_kg(r1, kBigRho);
+    const double dist = norm(b.x - o.x);
+    n = (b.x - o.x) / dist;
+    delta = r1 + r - dist;
+    r_eff = r1 * r / (r1 + r);
+    m_eff = m1 * m / (m1 + m);
+    v_n = dot(b.v - o.v, n);
+    area = std::numbers::pi / 4 * (dist * dist - (r1 - r) * (r1 - r)) * ((r1 + r) * (r1 + r) - dist * dist) / (dist * dist);
+  }
+  const double h = 2.0 * static_cast<double>(p.every) * p.dt;
+  const Vec3 acc = (c.v - a.v) / h, dw = (c.w - a.w) / h;
+  const Vec3 f_t = m * (acc - dot(acc, n) * n);  // gravity, where there is any, is along n
+  const Vec3 lever = -(r - delta / 2) * n;
+  Vec3 m_r = inertia * dw - cross(lever, f_t);
+  m_r = m_r - dot(m_r, n) * n;
+  const double y = effective_young_pa(kSjkrMat, kSjkrMat);
+  const double s_n = 2 * y * std::sqrt(r_eff * delta);
+  const double gamma_n = -2 * std::sqrt(5.0 / 6.0) * beta_from_restitution(kSjkrE) * std::sqrt(s_n * m_eff);
+  const double hertz_damping = 4.0 / 3.0 * y * std::sqrt(r_eff) * std::pow(delta, 1.5) - gamma_n * v_n;
+  return {norm(f_t), norm(m_r), hertz_damping, p.ced * area};
+}
+
+/// Over the frames from..to: the largest |F_t / (mu (Hertz + damping)) - 1| (or, for rolling,
+/// |M_r / (mu_r R* (Hertz + damping)) - 1|), and the smallest ratio of the two rules' normal
+/// forces, (Hertz + damping) / |Hertz + damping - cohesion|.
+struct LimitCheck {
+  double worst = 0.0, rule_ratio = 1e300;
+};
+LimitCheck limit_check(const Golden& g, const Probe& p, long from, long to, bool rolling, double coefficient) {
+  LimitCheck out;
+  const double r_eff = p.other == 0 ? kSjkrR : kBigR * kSjkrR / (kBigR + kSjkrR);
+  for (long step = from; step <= to; step += p.every) {
+    const ContactLook l = look(g, step, p);
+    const double limit = rolling ? coefficient * r_eff * l.hertz_damping : coefficient * l.hertz_damping;
+    out.worst = std::max(out.worst, std::abs((rolling ? l.m_r : l.f_t) / limit - 1));
+    out.rule_ratio = std::min(out.rule_ratio, std::abs(l.hertz_damping / (l.hertz_damping - l.cohesion)));
   }
   return out;
 }
 
-/// At frame k (central differences over the neighbouring frames, 100 steps apart): the friction
-/// force over mu, m |dv_x/dt| / mu, and the normal forces from the overlap and normal speed:
-/// Hertz + damping (no cohesion) and that minus the SJKR attraction (SPEC 2.1-2.4).
-struct FrictionCheck {
-  double ft_over_mu, hertz_damping, with_cohesion;
-};
-FrictionCheck friction_at(const Golden& g, long step, double ced) {
-  const Frame &a = g.at(step - 100).at(1), &b = g.at(step).at(1), &c = g.at(step + 100).at(1);
-  const double m = sphere_mass_kg(kSjkrR, kSjkrRho), dt = 200 * 1e-7;
-  const double y = effective_young_pa(kSjkrMat, kSjkrMat), r = kSjkrR;
-  const double delta = r + b.x.z;  // the wall is z = 0, the sphere below it
-  const double v_n = -b.v.z;       // along the wall normal (-z): positive = leaving
-  const double s_n = 2 * y * std::sqrt(r * delta);
-  const double gamma_n = -2 * std::sqrt(5.0 / 6.0) * beta_from_restitution(kSjkrE) * std::sqrt(s_n * m);
-  const double hertz = 4.0 / 3.0 * y * std::sqrt(r) * std::pow(delta, 1.5) - gamma_n * v_n;
-  const double coh = ced * std::numbers::pi * (r * r - (r - delta) * (r - delta));
-  return {m * std::abs(c.v.x - a.v.x) / dt / kSjkrMu, hertz, std::abs(hertz - coh)};
+void report_errors(const std::string& what, const Errors& e) {
+  report((what + ": max position error [m]").c_str(), e.x, 0.0);
+  report((what + ": max velocity error [m/s]").c_str(), e.v, 0.0);
+  report((what + ": max spin error [rad/s]").c_str(), e.w, 0.0);
+}
+
+void expect_within(const Errors& e, const Errors& tol) {
+  EXPECT_LT(e.x, tol.x);
+  EXPECT_LT(e.v, tol.v);
+  EXPECT_LT(e.w, tol.w);
+}
+
+// Golden tolerances (as scene 1), and those of the scenes that start in contact (set-up force,
+// see above).
+const Errors kGolden{1e-12, 1e-9, 1e-6}, kStartsInContact{5e-12, 1e-8, 3e-5};
+
+/// The reduced rule must be far off: each deviation at least 1e4 times the loosest tolerance
+/// above (measured: 2e-7 - 5e-5 m, 1e-3 - 2e-2 m/s, 3 - 24 rad/s).
+void expect_far(const Errors& e) {
+  EXPECT_GT(e.x, 1e-7);
+  EXPECT_GT(e.v, 1e-4);
+  EXPECT_GT(e.w, 1.0);
 }
 
 }  // namespace
 
-// Scene 2: a cohesive sphere pulled off a wall (SJKR): d = 2 mm, rho = 1000, E = 1e7 Pa,
-// nu = 0.3, e = 0.5, mu = 0.3; it starts 2 um into the ceiling, moving away at 0.01 m/s and
-// sliding along x at 0.01 m/s. With CED = 2e4 J/m3 it escapes; with 5e4 J/m3 cohesion keeps it
-// (20,000 steps, frames every 100).
-// Normal motion: biodem = LIGGGHTS to round-off (Hertz, damping and the SJKR wall area agree).
-// Tangential motion: it does NOT agree, and this is a finding (docs/contact_models.md, section
-// 10): LIGGGHTS 3.8.0 limits the sliding force at mu (Hertz + damping), without cohesion, while
-// biodem (SPEC 2.2) uses mu |Hertz + damping - cohesion|. The test shows both: over the sliding
-// frames (steps 600-1000), the reference's friction force equals mu (Hertz + damping) and
-// biodem's equals mu |F_n after cohesion|, each within 1 %, and the two differ by 27-65 %.
+// Scene 2: a cohesive sphere pulled off a wall (sjkr_pull_off.in): d = 2 mm, rho = 1000,
+// E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, no rolling friction, no gravity; it starts 2 um into
+// the ceiling z = 0, moving away at 0.01 m/s and sliding along x at 0.01 m/s. With
+// CED = 2e4 J/m3 it escapes; with 5e4 J/m3 cohesion keeps it (20,000 steps of 1e-7 s, frames
+// every 100). Measured with biodem's default rule: 2.0e-12 / 3.9e-13 m, 4.2e-9 m/s, 1.04e-5 rad/s
+// (CED 2e4 / 5e4), all from the set-up force (emulating LIGGGHTS' set-up: 1e-20 m, 7e-18 m/s,
+// 7e-15 rad/s), hence tolerances 5e-12 m, 1e-8 m/s, 3e-5 rad/s. With the reduced rule:
+// 1.9e-6 / 2.0e-7 m, 1.1e-3 / 1.2e-3 m/s, 2.8 / 3.1 rad/s. While the captured sphere slides
+// (steps 600-1,000) the friction force is mu (Hertz + damping) on both codes (within 0.13 %),
+// at least 1.27 times mu |Hertz + damping - cohesion|.
 TEST(GoldenLiggghts, CohesiveSpherePulledOffAWall) {
   const ScopedThreads one(1);
-  for (const double ced : {2e4, 5e4}) {
-    SCOPED_TRACE(ced);
-    const Golden ref = read_golden(ced == 2e4 ? "sjkr_pull_off_ced2.0e4.csv" : "sjkr_pull_off_ced5.0e4.csv");
-    ASSERT_EQ(ref.size(), 201u);
-    const Golden mine = sjkr_pull_off(ced, ref);
-    double ez = 0, evz = 0;
-    for (const auto& [step, atoms] : ref) {
-      ez = std::max(ez, std::abs(mine.at(step).at(1).x.z - atoms.at(1).x.z));
-      evz = std::max(evz, std::abs(mine.at(step).at(1).v.z - atoms.at(1).v.z));
-    }
-    const char* tag = ced == 2e4 ? "escapes" : "sticks";
-    report((std::string("golden SJKR pull-off (") + tag + "): max normal position error [m]").c_str(), ez, 0.0);
-    report((std::string("golden SJKR pull-off (") + tag + "): max normal velocity error [m/s]").c_str(), evz, 0.0);
-    EXPECT_LT(ez, 1e-12);
-    EXPECT_LT(evz, 1e-9);
-  }
-  // The friction law, on the captured sphere (it stays in contact and slides all along).
-  const Golden ref = read_golden("sjkr_pull_off_ced5.0e4.csv");
-  EXPECT_GT(ref.rbegin()->second.at(1).x.z, -1.0e-3);  // still touching the ceiling at the end
-  const Golden mine = sjkr_pull_off(5e4, ref);
-  double worst_ref = 0, worst_mine = 0, min_gap = 1e300;
-  for (long step = 600; step <= 1000; step += 100) {  // the reference slides until step ~1050
-    const FrictionCheck r = friction_at(ref, step, 5e4), b = friction_at(mine, step, 5e4);
-    worst_ref = std::max(worst_ref, std::abs(r.ft_over_mu / r.hertz_damping - 1));
-    worst_mine = std::max(worst_mine, std::abs(b.ft_over_mu / b.with_cohesion - 1));
-    min_gap = std::min(min_gap, std::abs(r.hertz_damping / r.with_cohesion - 1));
-  }
-  report("LIGGGHTS friction force vs mu (Hertz + damping), largest rel. deviation", worst_ref, 0.0);
-  report("biodem friction force vs mu |Hertz + damping - cohesion|, largest rel. deviation", worst_mine, 0.0);
-  report("the two normal forces differ by at least (rel.)", min_gap, 0.0);
-  EXPECT_LT(worst_ref, 0.01);
-  EXPECT_LT(worst_mine, 0.01);
-  EXPECT_GT(min_gap, 0.25);
+  const Interaction c2{kSjkrE, kSjkrMu, 0.0, 2e4}, c5{kSjkrE, kSjkrMu, 0.0, 5e4};
+  const Golden ref2 = read_golden("sjkr_pull_off_ced2.0e4.csv"), ref5 = read_golden("sjkr_pull_off_ced5.0e4.csv");
+  ASSERT_EQ(ref2.size(), 201u);
+  ASSERT_EQ(ref5.size(), 201u);
+  ASSERT_LT(ref2.rbegin()->second.at(1).x.z, -1.001e-3);  // escaped (16 um from the ceiling at the end)
+  ASSERT_GT(ref5.rbegin()->second.at(1).x.z, -1.0e-3);    // still touching the ceiling at the end
+  const Golden mine2 = ceiling_scene(ref2, c2, 1e-7, {}, false), mine5 = ceiling_scene(ref5, c5, 1e-7, {}, false);
+  const Errors e2 = deviation(mine2, ref2), e5 = deviation(mine5, ref5);
+  const Errors r2 = deviation(ceiling_scene(ref2, c2, 1e-7, {}, true), ref2);
+  const Errors r5 = deviation(ceiling_scene(ref5, c5, 1e-7, {}, true), ref5);
+  report_errors("golden SJKR pull-off, CED 2e4 (escapes)", e2);
+  report_errors("golden SJKR pull-off, CED 5e4 (sticks)", e5);
+  report_errors("golden SJKR pull-off, CED 2e4, biodem with tangential_reduce", r2);
+  report_errors("golden SJKR pull-off, CED 5e4, biodem with tangential_reduce", r5);
+  expect_within(e2, kStartsInContact);
+  expect_within(e5, kStartsInContact);
+  expect_far(r2);
+  expect_far(r5);
+  // The friction law, on the captured sphere (the reference slides until step ~1,050).
+  const Probe p{1, 0, 100, 1e-7, 5e4};
+  const LimitCheck lr = limit_check(ref5, p, 600, 1000, false, kSjkrMu);
+  const LimitCheck lb = limit_check(mine5, p, 600, 1000, false, kSjkrMu);
+  report("golden SJKR pull-off: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
+  report("golden SJKR pull-off: biodem friction vs mu (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
+  report("golden SJKR pull-off: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
+  EXPECT_LT(lr.worst, 0.01);
+  EXPECT_LT(lb.worst, 0.01);
+  EXPECT_GT(lr.rule_ratio, 1.25);
+}
+
+// Scene 2b: a cohesive sphere-sphere contact sliding (sjkr_pair_slide.in): a small sphere
+// (d = 2 mm, rho = 1000) held by cohesion (CED = 5e4 J/m3) on a big, nearly immovable one
+// (d = 20 mm, rho = 1e9) slides along it; it starts 2 um into it, moving along it and away from
+// it at 0.01 m/s; E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, no rolling friction, no gravity;
+// 3,000 steps of 1e-7 s, frames every 100. Measured with biodem's default rule: 4.5e-13 m,
+// 4.0e-9 m/s, 9.9e-6 rad/s, all from the set-up force (emulating LIGGGHTS' set-up: 2e-18 m,
+// 1e-14 m/s, 1e-12 rad/s), tolerances as scene 2. With the reduced rule: 2.3e-7 m, 1.2e-3 m/s,
+// 3.1 rad/s. While the small sphere slides (steps 500-1,000) the friction force is
+// mu (Hertz + damping) on both codes (within 0.14 %), at least 1.18 times
+// mu |Hertz + damping - cohesion|.
+TEST(GoldenLiggghts, CohesivePairSlidesWithTheFrictionLimitWithoutCohesion) {
+  const ScopedThreads one(1);
+  const Golden g = read_golden("sjkr_pair_slide.csv");
+  ASSERT_EQ(g.size(), 31u);
+  const Interaction c{kSjkrE, kSjkrMu, 0.0, 5e4};
+  const Golden mine = pair_scene(g, c, 1e-7, false);
+  const Errors e = deviation(mine, g), r = deviation(pair_scene(g, c, 1e-7, true), g);
+  report_errors("golden SJKR pair slide", e);
+  report_errors("golden SJKR pair slide, biodem with tangential_reduce", r);
+  expect_within(e, kStartsInContact);
+  expect_far(r);
+  const Probe p{2, 1, 100, 1e-7, 5e4};
+  const LimitCheck lr = limit_check(g, p, 500, 1000, false, kSjkrMu);
+  const LimitCheck lb = limit_check(mine, p, 500, 1000, false, kSjkrMu);
+  report("golden SJKR pair slide: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
+  report("golden SJKR pair slide: biodem friction vs mu (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
+  report("golden SJKR pair slide: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
+  EXPECT_LT(lr.worst, 0.01);
+  EXPECT_LT(lb.worst, 0.01);
+  EXPECT_GT(lr.rule_ratio, 1.15);
+}
+
+// Scene 2c: a cohesive sphere-sphere contact sliding, then rolling against EPSD2 until it stops
+// (sjkr_pair_roll.in): as scene 2b with mu_r = 0.1, 4,000 steps of 1e-6 s, frames every 20. The
+// small sphere starts 1 um above the big one, on top of it, moving towards it at 0.02 m/s and
+// along it at (0.03, 0.01) m/s, with spin (-2, 10, 3) rad/s (rolling without slip needs
+// (-10, 30, *)). Cohesion catches it (step ~50), it slides until step ~190, rolls with the rolling
+// torque at its limit mu_r R* |F_n| until ~3,300, and rests (the EPSD2 spring rocks it back).
+// Once the contact settles Hertz balances cohesion, so the reduced rule's |F_n| is at least 40
+// times smaller (steps 1,600-3,200) and leaves almost no rolling resistance: its sphere (in
+// either code) keeps rolling at ~0.03 m/s.
+// Measured with biodem's default rule: 7.5e-17 m, 4.1e-14 m/s, 4.1e-11 rad/s (tolerances as
+// scene 1). With the reduced rule: 5.5e-5 m, 2.4e-2 m/s, 24 rad/s off; against LIGGGHTS
+// `tangential_reduce on` 5.2e-18 m, 1.8e-14 m/s, 5.0e-12 rad/s. Friction while sliding (steps
+// 100-160) and rolling torque while rolling (220-3,200) are at their limits from
+// Hertz + damping within 0.19 % and 0.22 % on both codes.
+TEST(GoldenLiggghts, CohesivePairRollsToRestOnTheRollingLimitWithoutCohesion) {
+  const ScopedThreads one(1);
+  const Golden g = read_golden("sjkr_pair_roll.csv"), g_on = read_golden("sjkr_pair_roll_reduce_on.csv");
+  ASSERT_EQ(g.size(), 201u);
+  ASSERT_EQ(g_on.size(), 201u);
+  const Interaction c{kSjkrE, kSjkrMu, 0.1, 5e4};
+  const Golden mine = pair_scene(g, c, 1e-6, false), reduced = pair_scene(g, c, 1e-6, true);
+  const Errors e = deviation(mine, g), r = deviation(reduced, g), r_on = deviation(reduced, g_on);
+  report_errors("golden SJKR pair roll", e);
+  report_errors("golden SJKR pair roll, biodem with tangential_reduce", r);
+  report_errors("golden SJKR pair roll, biodem with tangential_reduce vs LIGGGHTS tangential_reduce on", r_on);
+  expect_within(e, kGolden);
+  expect_far(r);
+  expect_within(r_on, kGolden);
+  const double v0 = norm(g.begin()->second.at(2).v);
+  EXPECT_LT(norm(g.rbegin()->second.at(2).v), 0.05 * v0);    // the reference came to rest
+  EXPECT_GT(norm(g_on.rbegin()->second.at(2).v), 0.5 * v0);  // the reduced rule's did not
+  const Probe p{2, 1, 20, 1e-6, 5e4};
+  const LimitCheck sr = limit_check(g, p, 100, 160, false, kSjkrMu), sb = limit_check(mine, p, 100, 160, false, kSjkrMu);
+  const LimitCheck lr = limit_check(g, p, 220, 3200, true, 0.1), lb = limit_check(mine, p, 220, 3200, true, 0.1);
+  report("golden SJKR pair roll, sliding: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", sr.worst, 0.0);
+  report("golden SJKR pair roll, sliding: biodem friction vs mu (Hertz + damping), largest rel. deviation", sb.worst, 0.0);
+  report("golden SJKR pair roll, rolling: LIGGGHTS rolling torque vs mu_r R* (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
+  report("golden SJKR pair roll, rolling: biodem rolling torque vs mu_r R* (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
+  const LimitCheck steady = limit_check(g, p, 1600, 3200, true, 0.1);
+  report("golden SJKR pair roll, rolling: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
+  report("golden SJKR pair roll, steps 1,600-3,200: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", steady.rule_ratio, 0.0);
+  EXPECT_LT(sr.worst, 0.01);
+  EXPECT_LT(sb.worst, 0.01);
+  EXPECT_LT(lr.worst, 0.01);
+  EXPECT_LT(lb.worst, 0.01);
+  EXPECT_GT(lr.rule_ratio, 2.4);  // measured 2.54 (at the start of the roll)
+  EXPECT_GT(steady.rule_ratio, 30.0);  // measured 40
+}
+
+// Scene 2d: a cohesive sphere caught by a ceiling, sliding, then rolling along it against EPSD2
+// (sjkr_wall_roll.in): d = 2 mm, rho = 1000, E = 1e7 Pa, nu = 0.3 (ceiling the same), e = 0.5,
+// mu = 0.3, mu_r = 0.05, CED = 5e4 J/m3, gravity 9.81 m/s2 away from the ceiling z = 0; it starts
+// 1 um below it, moving up at 0.02 m/s and along x at 0.04 m/s, spinning at -10 rad/s about y
+// (rolling without slip needs about -40); 4,000 steps of 1e-6 s, frames every 20. Cohesion
+// catches it (step ~50), it slides until step ~250, then rolls with the rolling torque at its
+// limit mu_r r |F_n| (spin -28.7 -> -15.6 rad/s). The ceiling rests, so biodem's "wall" and
+// "lab" rolling references coincide. In the steady roll the reduced rule's |F_n| is about the
+// weight (cohesion balances Hertz plus the weight), at most a ninth of the reference's (steps
+// 1,600-3,960): its sphere hardly slows.
+// Measured with biodem's default rule: 1.5e-12 m, 5.4e-10 m/s, 1.3e-6 rad/s, from the wall EPSD2
+// factor in the first steps of contact (emulating it: 4e-20 m, 3e-17 m/s, 4e-14 rad/s);
+// tolerances 3e-12 m, 1e-9 m/s, 3e-6 rad/s. With the reduced rule: 2.9e-5 m, 1.4e-2 m/s, 16 rad/s
+// off; against LIGGGHTS `tangential_reduce on` 4.2e-13 m, 1.8e-10 m/s, 4.6e-7 rad/s (its rolling
+// limit, and so the factor's share, is smaller). Friction while sliding (steps 100-200) and
+// rolling torque while rolling (300-3,960) are at their limits from Hertz + damping within
+// 0.19 % and 0.18 % on both codes.
+TEST(GoldenLiggghts, CohesiveSphereRollsUnderACeilingOnTheRollingLimitWithoutCohesion) {
+  const ScopedThreads one(1);
+  const Golden g = read_golden("sjkr_wall_roll.csv"), g_on = read_golden("sjkr_wall_roll_reduce_on.csv");
+  ASSERT_EQ(g.size(), 201u);
+  ASSERT_EQ(g_on.size(), 201u);
+  const Interaction c{kSjkrE, kSjkrMu, 0.05, 5e4};
+  const Vec3 gravity{0, 0, -9.81};
+  const Golden mine = ceiling_scene(g, c, 1e-6, gravity, false), reduced = ceiling_scene(g, c, 1e-6, gravity, true);
+  const Errors e = deviation(mine, g), r = deviation(reduced, g), r_on = deviation(reduced, g_on);
+  report_errors("golden SJKR ceiling roll", e);
+  report_errors("golden SJKR ceiling roll, biodem with tangential_reduce", r);
+  report_errors("golden SJKR ceiling roll, biodem with tangential_reduce vs LIGGGHTS tangential_reduce on", r_on);
+  expect_within(e, {3e-12, 1e-9, 3e-6});
+  expect_far(r);
+  expect_within(r_on, kGolden);
+  const Frame &last = g.rbegin()->second.at(1), &last_on = g_on.rbegin()->second.at(1);
+  EXPECT_GT(last.x.z, -1e-3);     // still in contact,
+  EXPECT_LT(last.w.y, -10.0);     // still rolling the same way,
+  EXPECT_GT(last.w.y, -20.0);     // slowed down from -28.7 rad/s;
+  EXPECT_LT(last_on.w.y, -25.0);  // the reduced rule's hardly
+  const Probe p{1, 0, 20, 1e-6, 5e4};
+  const LimitCheck sr = limit_check(g, p, 100, 200, false, kSjkrMu), sb = limit_check(mine, p, 100, 200, false, kSjkrMu);
+  const LimitCheck lr = limit_check(g, p, 300, 3960, true, 0.05), lb = limit_check(mine, p, 300, 3960, true, 0.05);
+  report("golden SJKR ceiling roll, sliding: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", sr.worst, 0.0);
+  report("golden SJKR ceiling roll, sliding: biodem friction vs mu (Hertz + damping), largest rel. deviation", sb.worst, 0.0);
+  report("golden SJKR ceiling roll, rolling: LIGGGHTS rolling torque vs mu_r r (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
+  report("golden SJKR ceiling roll, rolling: biodem rolling torque vs mu_r r (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
+  const LimitCheck steady = limit_check(g, p, 1600, 3960, true, 0.05);
+  report("golden SJKR ceiling roll, rolling: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
+  report("golden SJKR ceiling roll, steps 1,600-3,960: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", steady.rule_ratio, 0.0);
+  EXPECT_LT(sr.worst, 0.01);
+  EXPECT_LT(sb.worst, 0.01);
+  EXPECT_LT(lr.worst, 0.01);
+  EXPECT_LT(lb.worst, 0.01);
+  EXPECT_GT(lr.rule_ratio, 1.8);  // measured 1.92 (at the start of the roll)
+  EXPECT_GT(steady.rule_ratio, 8.0);  // measured 9.0
 }
 
 // Scene 3: a three-sphere needle falls onto a plane and tumbles (needle_fall.in; LIGGGHTS
@@ -370,67 +646,4 @@ TEST(GoldenLiggghts, SphereInRotatingCylinderShowsTheRollingReference) {
   EXPECT_LT(offset_dev, 0.1 * kOmega);
   EXPECT_LT(w_ref_ride, 0.01 * kOmega);
   EXPECT_LT(w_ride_dev, 0.01 * kOmega);
-}
-
-// Scene 2b: the same finding for a sphere-sphere contact (sjkr_pair_slide.in): a small sphere
-// (d = 2 mm, rho = 1000) held by cohesion (CED = 5e4 J/m3) on a big, nearly immovable one
-// (d = 20 mm, rho = 1e9) slides along it; E = 1e7 Pa, nu = 0.3, e = 0.5, mu = 0.3, 3,000 steps of
-// 1e-7 s, frames every 100. Normal motion agrees with biodem (4e-11 m); while sliding (steps
-// 500-1000, where the two normal forces differ by 18-87 %) the
-// reference's friction force is mu (Hertz + damping), without cohesion, as at the wall.
-TEST(GoldenLiggghts, CohesivePairSlidingShowsTheFrictionLimitWithoutCohesion) {
-  const ScopedThreads one(1);
-  const Golden g = read_golden("sjkr_pair_slide.csv");
-  ASSERT_EQ(g.size(), 31u);
-  const Material small{1e7, 0.3, 1000.0}, big{1e7, 0.3, 1e9};
-  const Interaction c{0.5, 0.3, 0.0, 5e4};
-  contact::PairTable t(3);
-  t.set(0, 0, pair_params(small, small, c));
-  t.set(0, 2, pair_params(small, big, c));
-  t.set(2, 2, pair_params(big, big, c));
-  sim::Simulation s({sphere_template(1e-3), sphere_template(1e-2)}, {small.density_kg_m3, 0.0, big.density_kg_m3}, t,
-                    1e-7, {});
-  sim::BodyInit a, b;
-  a.shape = 1;
-  a.material = 2;
-  a.position_m = g.begin()->second.at(1).x;
-  b.shape = 0;
-  b.material = 0;
-  b.position_m = g.begin()->second.at(2).x;
-  b.velocity_m_s = g.begin()->second.at(2).v;
-  s.add_body(a);
-  s.add_body(b);
-  const double r1 = 1e-2, r2 = 1e-3, r_eff = r1 * r2 / (r1 + r2);
-  const double m2 = sphere_mass_kg(r2, 1000.0), m1 = sphere_mass_kg(r1, 1e9), m_eff = m1 * m2 / (m1 + m2);
-  const double y = effective_young_pa(small, big);
-  double e_gap = 0, worst_ref = 0, min_gap = 1e300;
-  for (const auto& [step, atoms] : g) {
-    while (static_cast<long>(s.step_count()) < step) s.step();
-    std::size_t i1 = s.bodies().id[0] == 0 ? 0 : 1, i2 = 1 - i1;
-    const double gap = norm(s.bodies().position_m[i2] - s.bodies().position_m[i1]);
-    e_gap = std::max(e_gap, std::abs(gap - norm(atoms.at(2).x - atoms.at(1).x)));
-    if (step < 500 || step > 1000) continue;
-    // The reference's tangential force on the small sphere, from its frames, against the normal
-    // force from its overlap and normal speed (SPEC 2.1-2.4, pair form).
-    const Frame &p = g.at(step - 100).at(2), &q = g.at(step + 100).at(2), &o = atoms.at(2);
-    const Vec3 d = o.x - atoms.at(1).x;
-    const double dist = norm(d);
-    const Vec3 n = d / dist;
-    const Vec3 acc = (q.v - p.v) / (200 * 1e-7);
-    const double f_t = m2 * norm(acc - dot(acc, n) * n);
-    const double delta = r1 + r2 - dist, v_n = dot(o.v - atoms.at(1).v, n);
-    const double gamma_n = -2 * std::sqrt(5.0 / 6.0) * beta_from_restitution(0.5) *
-                           std::sqrt(2 * y * std::sqrt(r_eff * delta) * m_eff);
-    const double hertz_damping = 4.0 / 3.0 * y * std::sqrt(r_eff) * std::pow(delta, 1.5) - gamma_n * v_n;
-    const double area = std::numbers::pi / 4 * (dist * dist - (r1 - r2) * (r1 - r2)) *
-                        ((r1 + r2) * (r1 + r2) - dist * dist) / (dist * dist);
-    worst_ref = std::max(worst_ref, std::abs(f_t / (0.3 * hertz_damping) - 1));
-    min_gap = std::min(min_gap, std::abs(hertz_damping / (hertz_damping - 5e4 * area)) - 1);
-  }
-  report("golden SJKR pair: centre-distance error (normal motion) [m]", e_gap, 0.0);
-  report("golden SJKR pair: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", worst_ref, 0.0);
-  report("golden SJKR pair: with cohesion the normal force would differ by at least (rel.)", min_gap, 0.0);
-  EXPECT_LT(e_gap, 1e-9);
-  EXPECT_LT(worst_ref, 0.01);
-  EXPECT_GT(min_gap, 0.15);
 }
