@@ -139,6 +139,7 @@ class Runner {
   /// GPU engine: brings the host Simulation up to date (with the contact history when `history`).
   void sync(bool history);
   double kinetic_energy_j();
+  double translational_kinetic_energy_j();
 
   const config::CaseConfig& cfg_;
   std::vector<std::string> warnings_;
@@ -193,6 +194,9 @@ void Runner::sync(bool history) {
 }
 
 double Runner::kinetic_energy_j() { return dev_ && device_current_ ? dev_->kinetic_energy_j() : sim_.kinetic_energy_j(); }
+double Runner::translational_kinetic_energy_j() {
+  return dev_ && device_current_ ? dev_->translational_kinetic_energy_j() : sim_.translational_kinetic_energy_j();
+}
 
 double Runner::revolution() const {
   const double rpm = cfg_.drum ? std::abs(cfg_.drum->rpm) : 0.0;
@@ -704,7 +708,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
     advance();
     ++k;
     if (p.criterion) {
-      const double ke = p.translational ? sim_.translational_kinetic_energy_j() : kinetic_energy_j();
+      const double ke = p.translational ? translational_kinetic_energy_j() : kinetic_energy_j();
       const double mean_ke = sim_.bodies().size() ? ke / sim_.bodies().size() : 0.0;
       below = mean_ke < p.ke_threshold_j ? below + 1 : 0;
       settled = k >= p.min_steps && below >= p.hold_steps;

@@ -47,6 +47,7 @@ class DeviceEngine {
   virtual void step() = 0;
   /// Total kinetic energy of all bodies (one device reduction).
   virtual double kinetic_energy_j() = 0;
+  virtual double translational_kinetic_energy_j() = 0;  // sum of m v^2 / 2
   /// Re-reads the host walls (their prescribed angular velocities change with the drum phases).
   virtual void sync_walls() = 0;
   /// Device description for run.log ("NVIDIA H100 80GB HBM3 (sm_90, CUDA)").

@@ -80,6 +80,7 @@ class Engine final : public DeviceEngine {
   void download(bool history) override;
   void step() override;
   double kinetic_energy_j() override;
+  double translational_kinetic_energy_j() override;
   void sync_walls() override;
 
  private:
@@ -483,6 +484,12 @@ inline double Engine::kinetic_energy_j() {
   return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
                                   thrust::counting_iterator<std::uint32_t>(nb()), BodyKineticEnergy{body_arrays()},
                                   0.0, thrust::plus<double>());
+}
+
+inline double Engine::translational_kinetic_energy_j() {
+  return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                  thrust::counting_iterator<std::uint32_t>(nb()),
+                                  BodyTranslationalKineticEnergy{body_arrays()}, 0.0, thrust::plus<double>());
 }
 
 inline void Engine::download(bool history) {

@@ -395,4 +395,10 @@ struct BodyKineticEnergy {
   }
 };
 
+/// m v^2 / 2 of body k (the settle criterion on translational energy).
+struct BodyTranslationalKineticEnergy {
+  BodyArrays b;
+  BIODEM_HD double operator()(std::uint32_t k) const { return 0.5 * b.mass[k] * norm2(b.velocity[k]); }
+};
+
 }  // namespace biodem::gpu::BIODEM_GPU_NS

@@ -1027,7 +1027,7 @@ class CaseParser {
     for (std::size_t i = 0; i < list.size(); ++i) {
       Reader r(file_, *list[i], entry_path("phase", i, name_label(*list[i])), true,
                {"name", "steps", "duration_s", "revolutions", "until_mean_kinetic_energy_j", "max_duration_s",
-                "min_duration_s", "settle_hold_s", "rotate"});
+                "min_duration_s", "settle_hold_s", "settle_energy", "rotate"});
       config::Phase p;
       p.name = r.string("name");
       if (p.name.empty()) r.fail("name", "must not be empty");
@@ -1042,7 +1042,7 @@ class CaseParser {
                          "(also given: " + std::string(given[0]) + ")");
       const bool settle = given[0] == "until_mean_kinetic_energy_j";
       if (!settle)
-        for (auto k : {"max_duration_s", "min_duration_s", "settle_hold_s"})
+        for (auto k : {"max_duration_s", "min_duration_s", "settle_hold_s", "settle_energy"})
           if (r.has(k)) r.fail(k, "only used with until_mean_kinetic_energy_j (a settle criterion)");
       if (r.has("steps")) {
         p.length = config::PhaseLength::Steps;
@@ -1064,6 +1064,10 @@ class CaseParser {
         p.min_duration_s = r.real_or("min_duration_s", 0.0, kNonNegative);
         p.settle_hold_s = r.real_or("settle_hold_s", p.settle_hold_s, kPositive);
         if (p.min_duration_s > *p.max_duration_s) r.fail("min_duration_s", "must not exceed max_duration_s");
+        if (auto e = r.opt_string("settle_energy")) {
+          if (*e == "translational") p.translational_criterion = true;
+          else if (*e != "total") r.fail("settle_energy", "must be \"total\" (default) or \"translational\"");
+        }
         p.length = config::PhaseLength::Duration;
         p.duration_s = *p.max_duration_s;
       }

@@ -85,10 +85,17 @@ std::string phase_line(const config::CaseConfig& c, const config::Phase& p) {
   os << "  " << p.name << ": ";
   const double rpm = c.drum ? c.drum->rpm : 0.0;
   if (p.until_mean_kinetic_energy_j) {
-    os << "until the mean kinetic energy per body stays below " << num(*p.until_mean_kinetic_energy_j)
+    os << "until the mean " << (p.translational_criterion ? "translational " : "") << "kinetic energy per body stays below " << num(*p.until_mean_kinetic_energy_j)
        << " J for " << num(p.settle_hold_s) << " s (after at least " << num(p.min_duration_s) << " s, at most "
        << num(p.max_duration_s.value_or(p.duration_s)) << " s = "
        << steps(p.max_duration_s.value_or(p.duration_s) / dt) << " steps)";
+  } else if (p.move_wall && p.move_by_fill_height) {
+    const double v = std::sqrt(p.move_velocity_m_s[0] * p.move_velocity_m_s[0] +
+                               p.move_velocity_m_s[1] * p.move_velocity_m_s[1] +
+                               p.move_velocity_m_s[2] * p.move_velocity_m_s[2]);
+    os << "wall #" << *p.move_wall + 1 << " lifted at " << num(v) << " m/s by the settled fill's height + "
+       << num(p.move_margin_m) << " m (at most " << num(p.duration_s * v) << " m = " << num(p.duration_s)
+       << " s = " << steps(p.duration_s / dt) << " steps)";
   } else {
     switch (p.length) {
       case config::PhaseLength::Steps:

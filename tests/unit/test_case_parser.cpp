@@ -286,6 +286,15 @@ TEST(CaseParser, SettleCriterionPhase) {
   EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10"), ".max_duration_s");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 10\nduration_s = 1.0"), ".duration_s");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 10\nmax_duration_s = 1.0"), ".max_duration_s");
+  // settle_energy: "total" by default, "translational" on request; anything else, or the key
+  // without a criterion, is an error naming it.
+  EXPECT_FALSE(c.phases[0].translational_criterion);
+  const auto tr = io::parse_case(edit(t, "min_duration_s = 0.3", "min_duration_s = 0.3\nsettle_energy = \"translational\""),
+                                 "case.toml").config;
+  EXPECT_TRUE(tr.phases[0].translational_criterion);
+  EXPECT_ERROR_NAMES(edit(t, "min_duration_s = 0.3", "min_duration_s = 0.3\nsettle_energy = \"rotational\""),
+                     ".settle_energy");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 10\nsettle_energy = \"total\""), ".settle_energy");
 }
 
 TEST(CaseParser, PhaseRules) {
