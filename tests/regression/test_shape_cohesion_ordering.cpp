@@ -15,6 +15,11 @@
 // 127.3-129.4 deg (margins 7.9-9.3). The test asks for 5 deg. Larger or faster drums gave
 // smaller margins (60 or 80 mm at 10 rpm: 6.5-6.9 deg; the faster turning lifts the spheres'
 // dynamic angle more than the needles'), a 40 mm drum noisier ones (4.7-9.3 deg).
+// Those figures were taken with cohesion inside the friction and rolling limits. Under the
+// reference rule (SPEC 2.2, issue 20: cohesion kept out of the limits) the cohesive needles hold a
+// much steeper bed: seed 1 settled at 85.5 deg (a poured cohesive bed is not flat) and then
+// slumped in large events between ~140 and 180 deg, mean 163.0 deg, against 128.5 deg for the
+// spheres (margin 34.5 deg). A bed carried round with the drum would pass 200 deg and keep going.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -77,8 +82,9 @@ TEST(ShapeCohesionOrdering, CohesiveNeedlesStandHigherThanNonCohesiveSpheres) {
 
   const Drum needles = read_drum(out_needles);
   const Drum spheres = read_drum(out_spheres);
-  // Both beds came to rest flat before the drum turned, then turned 0.6 revolution.
-  EXPECT_NEAR(needles.settled_alpha, 90.0, 3.0);
+  // Both beds came to rest before the drum turned (the spheres flat, the cohesive needles within
+  // a few degrees of flat), then turned 0.6 revolution.
+  EXPECT_NEAR(needles.settled_alpha, 90.0, 7.0);
   EXPECT_NEAR(spheres.settled_alpha, 90.0, 3.0);
   EXPECT_NEAR(needles.last_rev, 0.6, 0.005);
   EXPECT_NEAR(spheres.last_rev, 0.6, 0.005);
@@ -86,7 +92,7 @@ TEST(ShapeCohesionOrdering, CohesiveNeedlesStandHigherThanNonCohesiveSpheres) {
   ASSERT_GT(spheres.samples, 100u);
   // Both beds are tilted (past repose, not stuck to the wall going round).
   EXPECT_GT(spheres.mean_alpha, 110.0);
-  EXPECT_LT(needles.mean_alpha, 160.0);
+  EXPECT_LT(needles.mean_alpha, 190.0);
 
   std::cout << "mean alpha from revolution " << kWindowFromRev << ": cohesive needles " << needles.mean_alpha
             << " deg, non-cohesive spheres " << spheres.mean_alpha << " deg, margin "
