@@ -853,7 +853,8 @@ RunSummary Runner::run() {
        << rate << " sphere-steps/s";
   if (dev_)
     log_ << ", " << (done > 0 ? 1e6 * wall / done : 0.0) << " us/step on " << dev_->device_name()
-         << ", device neighbour builds " << dev_->list_builds() << "\n";
+         << ", device neighbour builds " << dev_->list_builds() << ", row widenings " << dev_->row_widenings()
+         << " (row capacity " << dev_->row_capacity() << ")\n";
   else
     log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
          << "\n";

@@ -56,6 +56,10 @@ class DeviceEngine {
   virtual void set_check_every(std::uint32_t steps) = 0;
   /// Neighbour-list builds on the device so far.
   virtual std::uint64_t list_builds() const = 0;
+  /// Times a list build found a row longer than the row capacity and rebuilt with wider rows,
+  /// and the capacity now (entries per sphere); run.log reports both (scripts/gpu_check.sh).
+  virtual std::uint64_t row_widenings() const = 0;
+  virtual std::uint32_t row_capacity() const = 0;
   /// For tests: the pairs (i < j, storage indices) of the current device list, sorted, and the
   /// number of row entries whose mirror entry (j's row holding i) is missing (0 in a valid list).
   virtual std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) = 0;

@@ -58,6 +58,8 @@ class Engine final : public DeviceEngine {
 
   std::string device_name() const override { return name_; }
   std::uint64_t list_builds() const override { return builds_; }
+  std::uint64_t row_widenings() const override { return widenings_; }
+  std::uint32_t row_capacity() const override { return rows_.cap; }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len;
     to_host(j, rows_.j);
@@ -159,6 +161,7 @@ class Engine final : public DeviceEngine {
   double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
+  std::uint64_t widenings_ = 0;  // list builds redone with wider rows
   std::uint32_t check_every_ = 10, steps_until_check_ = 1;
 
  public:
@@ -409,6 +412,7 @@ inline void Engine::build_list() {
         thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
     if (longest <= cap) break;
     cap = longest + longest / 4 + 1;
+    ++widenings_;
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   ++builds_;

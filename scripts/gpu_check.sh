@@ -1,0 +1,266 @@
+#!/usr/bin/env bash
+# The GPU engine's check in one command (docs/gpu.md section 6; issue 17). On a bare GPU machine
+# (CUDA toolkit, CMake, a compiler; no network, no Debian packages: the lean build, with the
+# vendor/ folder of scripts/vendor_headers.sh copied beside the sources):
+#
+#   bash scripts/gpu_check.sh
+#
+# builds, then runs, each recorded as PASS / FAIL / SKIP in one Markdown report:
+#   1. the GPU tests (tests/gpu, GpuRuns.*) on the device, with CUDA_LAUNCH_BLOCKING=1 and without;
+#   2. compute-sanitizer memcheck, initcheck, racecheck and synccheck on a short drum of 40,200
+#      spheres (tests/cases/gpu_check_drum40k.toml);
+#   3. two identical runs of a cohesive needle drum, compared byte for byte (series, trace,
+#      snapshots, checkpoint);
+#   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
+#   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
+#      positions within stated tolerances;
+#   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
+#      beads): widening seen in run.log, two runs byte-identical, CPU engine agreement;
+#   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
+#      beside it, and the hours for three revolutions.
+# It exits non-zero if any check fails.
+#
+# GPU_CHECK_DEVICE=gpu-emulated runs every check that needs no GPU (3-6, and 1 on CPU threads) on
+# the GPU engine's kernels on CPU threads, against an existing build; CI runs it that way
+# (ctest: GpuCheckScript.Emulated).
+#
+# Environment:
+#   GPU_CHECK_DEVICE     gpu (default) or gpu-emulated
+#   GPU_CHECK_BUILD_DIR  build directory (default: build-gpucheck on a GPU, build emulated)
+#   GPU_CHECK_BUILD      1: configure and build first (default on a GPU), 0: use the build as is
+#   GPU_CHECK_OUT        output folder (default out/gpu_check); the report is OUT/report.md
+#   GPU_CHECK_SKIP_CTEST 1: skip check 1 (when this script itself runs inside ctest)
+#   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
+#   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
+#   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
+set -uo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+DEVICE=${GPU_CHECK_DEVICE:-gpu}
+case "$DEVICE" in gpu|gpu-emulated) ;; *) echo "GPU_CHECK_DEVICE=$DEVICE: must be gpu or gpu-emulated" >&2; exit 2 ;; esac
+if [ "$DEVICE" = gpu ]; then def_build=build-gpucheck; def_do_build=1; def_bench=1; else def_build=build; def_do_build=0; def_bench=0; fi
+BUILD=${GPU_CHECK_BUILD_DIR:-$def_build}
+case "$BUILD" in /*) ;; *) BUILD=$root/$BUILD ;; esac
+DO_BUILD=${GPU_CHECK_BUILD:-$def_do_build}
+OUT=${GPU_CHECK_OUT:-$root/out/gpu_check}
+BENCH=${GPU_CHECK_BENCH:-$def_bench}
+THREADS=${GPU_CHECK_THREADS:-1}
+mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
+report=$OUT/report.md
+logs=$OUT/logs
+rm -rf "$logs" && mkdir -p "$logs"
+bin=$BUILD/biodem
+failures=0
+rows=()
+
+record() {  # name status detail
+  rows+=("| $1 | $2 | $3 |")
+  [ "$2" = FAIL ] && failures=$((failures + 1))
+  printf '%-44s %s  %s\n' "$1" "$2" "$3"
+}
+
+run_biodem() {  # label case out extra-args... -> exit status; output in $logs/label.txt
+  local label=$1 casefile=$2 out=$3
+  shift 3
+  rm -rf "$out"
+  "$bin" run "$casefile" --out "$out" --threads "$THREADS" "$@" > "$logs/$label.txt" 2>&1
+}
+
+same_files() {  # dirA dirB -> prints the files that differ or are missing; status 0 if all equal
+  local a=$1 b=$2 bad=0 f
+  for f in series.csv trace.csv checkpoint.bin snapshots.pvd bodies.pvd $(cd "$a" && ls snapshots/*.vtu 2>/dev/null); do
+    [ -e "$a/$f" ] || continue
+    if ! cmp -s "$a/$f" "$b/$f"; then echo "$f"; bad=1; fi
+  done
+  return $bad
+}
+
+# ------------------------------------------------------------------------------------- build
+if [ "$DO_BUILD" = 1 ]; then
+  args=(-DCMAKE_BUILD_TYPE=Release -DBIODEM_BUILD_BENCH=OFF)
+  if [ "$DEVICE" = gpu ]; then args+=(-DBIODEM_WITH_CUDA=ON "-DCMAKE_CUDA_ARCHITECTURES=${CUDA_ARCH:-90}"); fi
+  if [ ! -d /usr/include/toml++ ] && [ -d "$root/vendor" ]; then  # lean build (docs/gpu.md section 5)
+    args+=(-DBIODEM_WITH_OPENCV=OFF "-DBIODEM_VENDOR_DIR=$root/vendor")
+  fi
+  if cmake -S . -B "$BUILD" "${args[@]}" > "$logs/configure.txt" 2>&1 &&
+     cmake --build "$BUILD" -j"$(nproc)" > "$logs/build.txt" 2>&1; then
+    record "build" PASS "$(grep -c 'warning:' "$logs/build.txt") warnings; ${args[*]}"
+  else
+    record "build" FAIL "see logs/build.txt"
+  fi
+fi
+if [ ! -x "$bin" ]; then
+  record "biodem binary" FAIL "$bin not found (build first, or GPU_CHECK_BUILD=1)"
+fi
+
+device_name=$(run_biodem probe tests/cases/gpu_wide_rows_tiny.toml "$OUT/probe" --device "$DEVICE" &&
+  sed -n 's/.*us\/step on \(.*\), device neighbour builds.*/\1/p' "$OUT/probe/run.log")
+[ -n "$device_name" ] || device_name="(the engine did not start: $(tail -n 1 "$logs/probe.txt"))"
+
+# ------------------------------------------------------------------- 1. the GPU test tiers
+if [ "${GPU_CHECK_SKIP_CTEST:-0}" = 1 ]; then
+  record "1. GPU tests" SKIP "GPU_CHECK_SKIP_CTEST=1 (run by the enclosing ctest)"
+else
+  sel='^(GpuEngine|GpuRuns)\.|GpuEngineKilled'
+  if [ "$DEVICE" = gpu ]; then
+    for blocking in 1 0; do
+      if CUDA_LAUNCH_BLOCKING=$blocking BIODEM_TEST_GPU=1 ctest --test-dir "$BUILD" -R "$sel" --output-on-failure \
+           > "$logs/ctest_blocking$blocking.txt" 2>&1; then
+        record "1. GPU tests, CUDA_LAUNCH_BLOCKING=$blocking" PASS "$(grep -o '[0-9]* tests passed.*' "$logs/ctest_blocking$blocking.txt" | head -n 1)"
+      else
+        record "1. GPU tests, CUDA_LAUNCH_BLOCKING=$blocking" FAIL "see logs/ctest_blocking$blocking.txt"
+      fi
+    done
+  else
+    if ctest --test-dir "$BUILD" -R "$sel" --output-on-failure > "$logs/ctest_emulated.txt" 2>&1; then
+      record "1. GPU tests (CPU threads)" PASS "$(grep -o '[0-9]* tests passed.*' "$logs/ctest_emulated.txt" | head -n 1)"
+    else
+      record "1. GPU tests (CPU threads)" FAIL "see logs/ctest_emulated.txt"
+    fi
+  fi
+fi
+
+# -------------------------------------------------------------------- 2. compute-sanitizer
+if [ "$DEVICE" = gpu ]; then
+  san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
+  for tool in memcheck initcheck racecheck synccheck; do
+    if [ ! -x "$san" ]; then record "2. compute-sanitizer $tool" FAIL "compute-sanitizer not found"; continue; fi
+    rm -rf "$OUT/san_$tool"
+    if "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml --out "$OUT/san_$tool" \
+         --device gpu > "$logs/sanitizer_$tool.txt" 2>&1; then
+      record "2. compute-sanitizer $tool (40,200 spheres)" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_$tool.txt" | tail -n 1)"
+    else
+      record "2. compute-sanitizer $tool (40,200 spheres)" FAIL "see logs/sanitizer_$tool.txt"
+    fi
+  done
+else
+  record "2. compute-sanitizer" SKIP "needs a GPU"
+fi
+
+# ------------------------------------------------------------ 3.-5. the cohesive needle drum
+needles=tests/cases/gpu_needles_tiny.toml
+run_biodem needles_a "$needles" "$OUT/needles_a" --device "$DEVICE"; sa=$?
+run_biodem needles_b "$needles" "$OUT/needles_b" --device "$DEVICE"; sb=$?
+if [ $sa -ne 0 ] || [ $sb -ne 0 ]; then
+  record "3. two identical runs" FAIL "a run failed (logs/needles_a.txt, needles_b.txt)"
+elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_b"); then
+  record "3. two identical runs" PASS "series, trace, snapshots and checkpoint byte-identical"
+else
+  record "3. two identical runs" FAIL "differ: $(echo $diff)"
+fi
+
+BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
+"$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?
+if [ $sk -ne 137 ] || [ $sr -ne 0 ]; then
+  record "4. kill at step 9,001 and resume" FAIL "kill status $sk (137 expected), resume status $sr"
+elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_kill"); then
+  record "4. kill at step 9,001 and resume" PASS "outputs byte-identical to the uninterrupted run"
+else
+  record "4. kill at step 9,001 and resume" FAIL "differ: $(echo $diff)"
+fi
+
+compare_engines() {  # label cpu-dir gpu-dir alpha-tol-deg rel-tol -> prints detail; status
+  python3 - "$2" "$3" "$4" "$5" <<'PY'
+import csv, math, sys
+cpu, gpu, alpha_tol, rel_tol = sys.argv[1], sys.argv[2], float(sys.argv[3]), float(sys.argv[4])
+def cols(path):
+    rows = list(csv.DictReader(open(path)))
+    return {k: [float(r[k]) if r[k] not in ("", "nan") else math.nan for r in rows] for k in rows[0]}
+c, g = cols(cpu + "/series.csv"), cols(gpu + "/series.csv")
+bad = []
+if len(c["time_s"]) != len(g["time_s"]):
+    print(f"sample counts differ: {len(c['time_s'])} vs {len(g['time_s'])}"); sys.exit(1)
+da = max(abs(a - b) for a, b in zip(c["alpha_deg"], g["alpha_deg"]) if not (math.isnan(a) or math.isnan(b)))
+ke_c, ke_g = sum(c["kinetic_energy_j"]), sum(g["kinetic_energy_j"])
+n_c, n_g = c["contacts"][-1], g["contacts"][-1]
+dke = abs(ke_g - ke_c) / max(ke_c, 1e-300)
+dn = abs(n_g - n_c) / max(n_c, 1.0)
+msg = f"worst alpha difference {da:.3g} deg (tol {alpha_tol}), mean KE rel. diff {dke:.3g} (tol {rel_tol}), final contacts {n_c:.0f} vs {n_g:.0f} (tol {rel_tol})"
+try:  # final body positions from trace.csv, where the case writes one
+    def last(path):
+        rows = list(csv.DictReader(open(path)))
+        t = rows[-1]["time_s"]
+        return {r["body_id"]: (float(r["x_m"]), float(r["y_m"]), float(r["z_m"])) for r in rows if r["time_s"] == t}
+    pc, pg = last(cpu + "/trace.csv"), last(gpu + "/trace.csv")
+    dx = max(math.dist(pc[k], pg[k]) for k in pc)
+    msg += f", worst final body position diff {dx:.3g} m over {len(pc)} bodies"
+except FileNotFoundError:
+    pass
+print(msg)
+sys.exit(0 if da <= alpha_tol and dke <= rel_tol and dn <= rel_tol else 1)
+PY
+}
+
+run_biodem needles_cpu "$needles" "$OUT/needles_cpu" --device cpu; sc=$?
+if [ $sc -ne 0 ] || [ $sa -ne 0 ]; then
+  record "5. needle drum vs CPU engine" FAIL "a run failed (logs/needles_cpu.txt)"
+elif detail=$(compare_engines needles "$OUT/needles_cpu" "$OUT/needles_a" 0.5 0.05); then
+  record "5. needle drum vs CPU engine" PASS "$detail"
+else
+  record "5. needle drum vs CPU engine" FAIL "$detail"
+fi
+
+# ------------------------------------------------------------------------- 6. wider rows
+wide=tests/cases/gpu_wide_rows_tiny.toml
+run_biodem wide_a "$wide" "$OUT/wide_a" --device "$DEVICE"; wa=$?
+run_biodem wide_b "$wide" "$OUT/wide_b" --device "$DEVICE"; wb=$?
+run_biodem wide_cpu "$wide" "$OUT/wide_cpu" --device cpu; wc=$?
+if [ $wa -ne 0 ] || [ $wb -ne 0 ] || [ $wc -ne 0 ]; then
+  record "6. wider-row rebuild" FAIL "a run failed (logs/wide_*.txt)"
+else
+  widen=$(sed -n 's/.*row widenings \([0-9]*\) (row capacity \([0-9]*\)).*/\1 \2/p' "$OUT/wide_a/run.log")
+  n_widen=${widen% *}
+  detail="row widenings ${n_widen:-?}, capacity ${widen#* }"
+  ok=1
+  [ -n "$n_widen" ] && [ "$n_widen" -ge 1 ] || { ok=0; detail="$detail (no widening seen)"; }
+  if diff=$(same_files "$OUT/wide_a" "$OUT/wide_b"); then detail="$detail; two runs byte-identical"; else ok=0; detail="$detail; runs differ: $(echo $diff)"; fi
+  if cmp_detail=$(compare_engines wide "$OUT/wide_cpu" "$OUT/wide_a" 0.5 0.05); then detail="$detail; vs CPU: $cmp_detail"; else ok=0; detail="$detail; vs CPU: $cmp_detail"; fi
+  [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
+fi
+
+# ----------------------------------------------------------------------------- 7. bench
+if [ "$BENCH" = 1 ]; then
+  if DEVICE=$DEVICE BIODEM="$bin" OUT="$OUT/bench" CPU_THREADS="${CPU_THREADS-$(nproc)}" \
+       bash bench/run_gpu_bench.sh > "$logs/bench.txt" 2>&1; then
+    record "7. bench/run_gpu_bench.sh" PASS "table below"
+  else
+    record "7. bench/run_gpu_bench.sh" FAIL "see logs/bench.txt"
+  fi
+else
+  record "7. bench/run_gpu_bench.sh" SKIP "GPU_CHECK_BENCH=0"
+fi
+
+# ---------------------------------------------------------------------------- the report
+{
+  echo "# GPU engine check"
+  echo
+  echo "- date: $(date -u '+%Y-%m-%d %H:%M UTC')"
+  echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (with uncommitted changes)')"
+  echo "- device: $DEVICE — $device_name"
+  if command -v nvidia-smi > /dev/null 2>&1; then
+    echo "- nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null | head -n 1)"
+  fi
+  echo "- host: $(uname -n), $(nproc) CPU threads; runs with --threads $THREADS"
+  echo
+  echo "| check | result | detail |"
+  echo "|---|---|---|"
+  printf '%s\n' "${rows[@]}"
+  if [ -f "$OUT/bench/gpu_results.csv" ]; then
+    echo
+    echo "## bench/run_gpu_bench.sh"
+    echo
+    python3 - "$OUT/bench/gpu_results.csv" <<'PY'
+import csv, sys
+rows = list(csv.reader(open(sys.argv[1])))
+print("| " + " | ".join(rows[0]) + " |")
+print("|" + "---|" * len(rows[0]))
+for r in rows[1:]:
+    print("| " + " | ".join(r) + " |")
+PY
+  fi
+  echo
+  echo "Logs: \`$logs\`. $failures check(s) failed."
+} > "$report"
+echo "report: $report ($failures failed)"
+[ $failures -eq 0 ]
