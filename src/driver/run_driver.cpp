@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -32,6 +33,7 @@
 #include "io/checkpoint.hpp"
 #include "io/series_csv.hpp"
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 #include "driver/build_simulation.hpp"
 #include "gpu/device_engine.hpp"
 #include "io/case_report.hpp"
@@ -59,6 +61,14 @@ struct PhasePlan {
   bool move_by_fill_height = false;  // [heap] lift: by the fill height + margin (at most max_steps)
   double move_margin_m = 0.0;
 };
+
+/// CPU time of the whole process (all threads), user + system, in seconds.
+double process_cpu_s() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 std::uint64_t steps_for(double seconds, double dt) {
   return static_cast<std::uint64_t>(std::llround(seconds / dt));
@@ -702,6 +712,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_.flush();  // a run killed during the phase still says which phase it was in
   sim_.set_profile(opt_.profile && !dev_);
   sim_.reset_profile();
+  const double cpu0 = process_cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   while (!settled && k < max_steps) {
@@ -723,7 +734,21 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "phase '" << p.name << "' ends at t = " << sim_.time_s() << " s after " << k << " steps";
   log_ << "; wall " << wall << " s, " << (k ? 1e6 * wall / static_cast<double>(k) : 0.0) << " us/step, " << rate
        << " sphere-steps/s";
-  if (!dev_) log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
+  if (!dev_) {
+    log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
+    // Did the host give every thread a core? Process CPU time over wall time (the step's
+    // workers spin between jobs, so a thread that holds a core counts fully): measured, so that
+    // timings taken on a busy host say so (issue 18).
+    // Scenes below the parallel threshold step on one thread while the others sleep.
+    const double cores = wall > 0.0 ? (process_cpu_s() - cpu0) / wall : 0.0;
+    const int threads = sim_.spheres().size() >= kParallelThreshold ? omp_get_max_threads() : 1;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "; CPU %.2f cores for %d stepping thread%s", cores, threads, threads == 1 ? "" : "s");
+    log_ << buf;
+    if (wall > 1.0 && cores < 0.85 * threads)
+      log_ << " (WARNING: the host gave this run only " << cores << " of " << threads
+           << " cores: other load; the timing understates the speed)";
+  }
   if (opt_.profile && !dev_ && sim_.profile().steps > 0) {
     const sim::StepProfile& q = sim_.profile();
     const double per = 1e6 / static_cast<double>(q.steps);
