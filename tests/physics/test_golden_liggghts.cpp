@@ -270,6 +270,37 @@ LimitCheck limit_check(const Golden& g, const Probe& p, long from, long to, bool
   return out;
 }
 
+/// The sliding and rolling limits of a rolling scene, on both codes: over [slide_from, slide_to]
+/// the friction force and over [roll_from, roll_to] the rolling torque equal mu (Hertz + damping)
+/// and mu_r R* (Hertz + damping) within 1 %; the reduced rule's normal force would be smaller by
+/// at least min_ratio at the start of the roll and min_steady from steady_from on.
+struct RollLimits {
+  long slide_from, slide_to, roll_from, roll_to, steady_from;
+  double mu_r, min_ratio, min_steady;
+};
+void expect_limits_without_cohesion(const std::string& what, const Golden& g, const Golden& mine, const Probe& p,
+                                    const RollLimits& k) {
+  const LimitCheck sr = limit_check(g, p, k.slide_from, k.slide_to, false, kSjkrMu);
+  const LimitCheck sb = limit_check(mine, p, k.slide_from, k.slide_to, false, kSjkrMu);
+  const LimitCheck lr = limit_check(g, p, k.roll_from, k.roll_to, true, k.mu_r);
+  const LimitCheck lb = limit_check(mine, p, k.roll_from, k.roll_to, true, k.mu_r);
+  const LimitCheck steady = limit_check(g, p, k.steady_from, k.roll_to, true, k.mu_r);
+  const std::string dev = ", largest rel. deviation";
+  report((what + ", sliding: LIGGGHTS friction vs mu (Hertz + damping)" + dev).c_str(), sr.worst, 0.0);
+  report((what + ", sliding: biodem friction vs mu (Hertz + damping)" + dev).c_str(), sb.worst, 0.0);
+  report((what + ", rolling: LIGGGHTS rolling torque vs mu_r R* (Hertz + damping)" + dev).c_str(), lr.worst, 0.0);
+  report((what + ", rolling: biodem rolling torque vs mu_r R* (Hertz + damping)" + dev).c_str(), lb.worst, 0.0);
+  report((what + ", rolling: (Hertz + damping) / |Hertz + damping - cohesion|, smallest").c_str(), lr.rule_ratio, 0.0);
+  report((what + ", steady roll: (Hertz + damping) / |Hertz + damping - cohesion|, smallest").c_str(), steady.rule_ratio,
+         0.0);
+  EXPECT_LT(sr.worst, 0.01);
+  EXPECT_LT(sb.worst, 0.01);
+  EXPECT_LT(lr.worst, 0.01);
+  EXPECT_LT(lb.worst, 0.01);
+  EXPECT_GT(lr.rule_ratio, k.min_ratio);
+  EXPECT_GT(steady.rule_ratio, k.min_steady);
+}
+
 void report_errors(const std::string& what, const Errors& e) {
   report((what + ": max position error [m]").c_str(), e.x, 0.0);
   report((what + ": max velocity error [m/s]").c_str(), e.v, 0.0);
@@ -401,22 +432,9 @@ TEST(GoldenLiggghts, CohesivePairRollsToRestOnTheRollingLimitWithoutCohesion) {
   const double v0 = norm(g.begin()->second.at(2).v);
   EXPECT_LT(norm(g.rbegin()->second.at(2).v), 0.05 * v0);    // the reference came to rest
   EXPECT_GT(norm(g_on.rbegin()->second.at(2).v), 0.5 * v0);  // the reduced rule's did not
-  const Probe p{2, 1, 20, 1e-6, 5e4};
-  const LimitCheck sr = limit_check(g, p, 100, 160, false, kSjkrMu), sb = limit_check(mine, p, 100, 160, false, kSjkrMu);
-  const LimitCheck lr = limit_check(g, p, 220, 3200, true, 0.1), lb = limit_check(mine, p, 220, 3200, true, 0.1);
-  report("golden SJKR pair roll, sliding: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", sr.worst, 0.0);
-  report("golden SJKR pair roll, sliding: biodem friction vs mu (Hertz + damping), largest rel. deviation", sb.worst, 0.0);
-  report("golden SJKR pair roll, rolling: LIGGGHTS rolling torque vs mu_r R* (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
-  report("golden SJKR pair roll, rolling: biodem rolling torque vs mu_r R* (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
-  const LimitCheck steady = limit_check(g, p, 1600, 3200, true, 0.1);
-  report("golden SJKR pair roll, rolling: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
-  report("golden SJKR pair roll, steps 1,600-3,200: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", steady.rule_ratio, 0.0);
-  EXPECT_LT(sr.worst, 0.01);
-  EXPECT_LT(sb.worst, 0.01);
-  EXPECT_LT(lr.worst, 0.01);
-  EXPECT_LT(lb.worst, 0.01);
-  EXPECT_GT(lr.rule_ratio, 2.4);  // measured 2.54 (at the start of the roll)
-  EXPECT_GT(steady.rule_ratio, 30.0);  // measured 40
+  // Sliding steps 100-160, rolling 220-3,200 (steady from 1,600); ratios measured 2.54 and 40.
+  expect_limits_without_cohesion("golden SJKR pair roll", g, mine, {2, 1, 20, 1e-6, 5e4},
+                                 {100, 160, 220, 3200, 1600, 0.1, 2.4, 30.0});
 }
 
 // Scene 2d: a cohesive sphere caught by a ceiling, sliding, then rolling along it against EPSD2
@@ -456,22 +474,9 @@ TEST(GoldenLiggghts, CohesiveSphereRollsUnderACeilingOnTheRollingLimitWithoutCoh
   EXPECT_LT(last.w.y, -10.0);     // still rolling the same way,
   EXPECT_GT(last.w.y, -20.0);     // slowed down from -28.7 rad/s;
   EXPECT_LT(last_on.w.y, -25.0);  // the reduced rule's hardly
-  const Probe p{1, 0, 20, 1e-6, 5e4};
-  const LimitCheck sr = limit_check(g, p, 100, 200, false, kSjkrMu), sb = limit_check(mine, p, 100, 200, false, kSjkrMu);
-  const LimitCheck lr = limit_check(g, p, 300, 3960, true, 0.05), lb = limit_check(mine, p, 300, 3960, true, 0.05);
-  report("golden SJKR ceiling roll, sliding: LIGGGHTS friction vs mu (Hertz + damping), largest rel. deviation", sr.worst, 0.0);
-  report("golden SJKR ceiling roll, sliding: biodem friction vs mu (Hertz + damping), largest rel. deviation", sb.worst, 0.0);
-  report("golden SJKR ceiling roll, rolling: LIGGGHTS rolling torque vs mu_r r (Hertz + damping), largest rel. deviation", lr.worst, 0.0);
-  report("golden SJKR ceiling roll, rolling: biodem rolling torque vs mu_r r (Hertz + damping), largest rel. deviation", lb.worst, 0.0);
-  const LimitCheck steady = limit_check(g, p, 1600, 3960, true, 0.05);
-  report("golden SJKR ceiling roll, rolling: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", lr.rule_ratio, 0.0);
-  report("golden SJKR ceiling roll, steps 1,600-3,960: (Hertz + damping) / |Hertz + damping - cohesion|, smallest", steady.rule_ratio, 0.0);
-  EXPECT_LT(sr.worst, 0.01);
-  EXPECT_LT(sb.worst, 0.01);
-  EXPECT_LT(lr.worst, 0.01);
-  EXPECT_LT(lb.worst, 0.01);
-  EXPECT_GT(lr.rule_ratio, 1.8);  // measured 1.92 (at the start of the roll)
-  EXPECT_GT(steady.rule_ratio, 8.0);  // measured 9.0
+  // Sliding steps 100-200, rolling 300-3,960 (steady from 1,600); ratios measured 1.92 and 9.0.
+  expect_limits_without_cohesion("golden SJKR ceiling roll", g, mine, {1, 0, 20, 1e-6, 5e4},
+                                 {100, 200, 300, 3960, 1600, 0.05, 1.8, 8.0});
 }
 
 // Scene 3: a three-sphere needle falls onto a plane and tumbles (needle_fall.in; LIGGGHTS
