@@ -10,7 +10,8 @@
 #   2. compute-sanitizer memcheck, initcheck, racecheck and synccheck on a short drum of 40,200
 #      spheres (tests/cases/gpu_check_drum40k.toml);
 #   3. two identical runs of a cohesive needle drum, compared byte for byte (series, trace,
-#      snapshots, checkpoint);
+#      snapshots, checkpoint), and (3b) the same run with every loop on two threads
+#      (BIODEM_TEST_PARALLEL_THRESHOLD=0 --threads 2) compared with them;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -148,6 +149,17 @@ elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_b"); then
   record "3. two identical runs" PASS "series, trace, snapshots and checkpoint byte-identical"
 else
   record "3. two identical runs" FAIL "differ: $(echo $diff)"
+fi
+
+# 3b. Every loop on two threads, however small (BIODEM_TEST_PARALLEL_THRESHOLD=0): emulated, the
+# kernels themselves run on two OpenMP threads; on a GPU, the host's share (insertion, sampling).
+BIODEM_TEST_PARALLEL_THRESHOLD=0 THREADS=2 run_biodem needles_par "$needles" "$OUT/needles_par" --device "$DEVICE"; sp=$?
+if [ $sp -ne 0 ] || [ $sa -ne 0 ]; then
+  record "3b. same run, every loop on 2 threads" FAIL "a run failed (logs/needles_par.txt)"
+elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_par"); then
+  record "3b. same run, every loop on 2 threads" PASS "byte-identical to the 1-thread run"
+else
+  record "3b. same run, every loop on 2 threads" FAIL "differ: $(echo $diff)"
 fi
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?

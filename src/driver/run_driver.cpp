@@ -894,6 +894,10 @@ RunSummary Runner::run() {
 }  // namespace
 
 RunSummary run_case(const io::LoadedCase& loaded, const RunOptions& options) {
+  // Test hook: BIODEM_TEST_PARALLEL_THRESHOLD=N runs every loop over at least N items on the
+  // threads (0: all of them, so that small test scenes exercise the parallel paths, e.g. the GPU
+  // engine's kernels on CPU threads in scripts/gpu_check.sh).
+  if (const char* v = std::getenv("BIODEM_TEST_PARALLEL_THRESHOLD")) set_parallel_threshold(std::strtoull(v, nullptr, 10));
   Runner r(loaded, options);
   // SIGINT / SIGTERM stop the run at the end of the current step with a checkpoint.
   struct Handlers {
