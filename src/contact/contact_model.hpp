@@ -36,11 +36,8 @@ struct ContactOutput {
 };
 
 template <bool Cohesion, bool Rolling>
-/// advance_tangential = false: the set-up evaluation before the first step (Simulation::refresh,
-/// the GPU engine's upload), where the tangential spring is the stored one, not incremented, as in
-/// LIGGGHTS 3.8.0's setup (the EPSD2 spring is incremented there as in a step, also as LIGGGHTS).
 BIODEM_HD inline ContactOutput evaluate_contact(const ContactGeometry& g, const PairParams& p, ContactHistory& h,
-                                      double cohesion_area_m2, double dt, bool advance_tangential = true) {
+                                      double cohesion_area_m2, double dt) {
   const Vec3& n = g.normal;
   const double v_n = dot(g.v_rel, n);
   double f_n = hertz_elastic_force(p.y_eff_pa, g.r_eff_m, g.overlap_m) -
@@ -55,8 +52,7 @@ BIODEM_HD inline ContactOutput evaluate_contact(const ContactGeometry& g, const 
   const Vec3 v_t = g.v_rel - v_n * n;
   const double k_t = mindlin_tangential_stiffness(p.g_eff_pa, g.r_eff_m, g.overlap_m);
   const double gamma_t = tangential_damping_coefficient(p.beta, p.g_eff_pa, g.r_eff_m, g.overlap_m, g.m_eff_kg);
-  const TangentialResult t = mindlin_tangential_force(h.xi, v_t, n, k_t, gamma_t, p.friction, abs_f_n, dt,
-                                                       advance_tangential);
+  const TangentialResult t = mindlin_tangential_force(h.xi, v_t, n, k_t, gamma_t, p.friction, abs_f_n, dt);
 
   ContactOutput out;
   out.normal_force_n = f_n;

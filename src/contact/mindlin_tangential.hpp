@@ -23,16 +23,12 @@ struct TangentialResult {
   bool sliding = false;
 };
 
-/// Updates the history `xi` in place and returns the tangential force on i. advance = false is
-/// the set-up evaluation before the first step (as LIGGGHTS' setup, which does not update the
-/// shear history): the spring is the stored xi, neither incremented nor projected.
+/// Updates the history `xi` in place and returns the tangential force on i.
 BIODEM_HD inline TangentialResult mindlin_tangential_force(Vec3& xi, const Vec3& v_t, const Vec3& n, double k_t,
                                                  double gamma_t, double friction, double normal_force_abs,
-                                                 double dt, bool advance = true) {
-  if (advance) {
-    xi += v_t * dt;
-    xi -= dot(xi, n) * n;
-  }
+                                                 double dt) {
+  xi += v_t * dt;
+  xi -= dot(xi, n) * n;
   TangentialResult r;
   const Vec3 spring = -k_t * xi;
   const double limit = friction * normal_force_abs;

@@ -162,7 +162,6 @@ class Engine final : public DeviceEngine {
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
   std::uint64_t widenings_ = 0;  // list builds redone with wider rows
-  bool setup_eval_ = false;      // the set-up force evaluation of upload()
   std::uint32_t check_every_ = 10, steps_until_check_ = 1;
 
  public:
@@ -317,9 +316,7 @@ inline void Engine::upload() {
     const auto touch = rows_.touching;
     const auto whist = wall_history_;
     const auto wtouch = wall_touching_;
-    setup_eval_ = true;  // tangential springs as stored, as the CPU engine's refresh()
     compute_forces();
-    setup_eval_ = false;
     // Keep the history of pairs that were touching before; new contacts start from zero.
     std::vector<contact::ContactHistory> h0, h1, w0, w1;
     std::vector<std::uint8_t> t0, t1, u0, u1;
@@ -436,7 +433,6 @@ inline void Engine::compute_forces() {
     f.n = ns();
     f.dt = dt_;
     f.wall_rolling_lab = host_.wall_rolling_lab();
-    f.advance = !setup_eval_;
     launch(ns(), f);
   };
   if (cohesion_) {

@@ -287,7 +287,6 @@ struct Forces {
   std::uint32_t n;
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
-  bool advance;           // false: the set-up evaluation (tangential springs as stored)
   BIODEM_HD void operator()(std::uint32_t a) const {
     Vec3 f, t;
     std::uint32_t count = 0;
@@ -320,7 +319,7 @@ struct Forces {
           d, dist, ri, rj, s.body_mass[i], s.body_mass[j], s.velocity[i], s.velocity[j], s.omega[i], s.omega[j]);
       const contact::PairParams& p = pairs[s.material[i] * n_materials + s.material[j]];
       const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt, advance);
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt);
       rows.touching[k] = 1;
       if (a_low) {
         f += out.force_i;
@@ -351,7 +350,7 @@ struct Forces {
                                                                          s.velocity[a], s.omega[a], v_wall, w_wall);
       const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];
       const double area = Cohesion ? contact::sjkr_area_sphere_wall(ra, hit.gap_m) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt, advance);
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt);
       wall_touching[slot] = 1;
       f += out.force_i;
       t += out.torque_i;

@@ -344,12 +344,9 @@ void Simulation::refresh() {
   list_valid_ = true;
   // Forces for the first half kick; this is not a time step, so the contact history (tangential
   // and rolling springs) must not advance: it is restored after the evaluation.
-  // The tangential springs enter as stored (LIGGGHTS' setup does not update the shear history).
   const auto pair_history = list_.history;
   const auto wall_history = wall_contacts_.history;
-  setup_eval_ = true;
   forces_and_kick(false);
-  setup_eval_ = false;
   for (std::size_t k = 0; k < pair_history.size(); ++k)
     if (list_.touching[k]) list_.history[k] = pair_history[k];
   for (std::size_t k = 0; k < wall_history.size(); ++k)
@@ -644,7 +641,7 @@ std::size_t Simulation::pair_rows(std::size_t i0, std::size_t i1) {
           s.angular_velocity_rad_s[i], s.angular_velocity_rad_s[j]);
       const contact::PairParams& p = pairs_(s.material[i], s.material[j]);
       const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt, !setup_eval_);
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt);
       L.touching[k] = 1;
       L.force_i[k] = out.force_i;
       L.torque_j[k] = out.torque_j;
@@ -693,7 +690,7 @@ std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
           hit.normal, hit.gap_m, ri, s.body_mass_kg[i], s.velocity_m_s[i], s.angular_velocity_rad_s[i], v_wall, w_wall);
       const contact::PairParams& p = pairs_(s.material[i], ws.material);
       const double area = Cohesion ? contact::sjkr_area_sphere_wall(ri, hit.gap_m) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wc.history[slot], area, dt, !setup_eval_);
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wc.history[slot], area, dt);
       wc.touching[slot] = 1;
       f += out.force_i;
       t += out.torque_i;

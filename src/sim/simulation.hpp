@@ -273,7 +273,6 @@ class Simulation {
   bool list_valid_ = false;
   bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;
-  bool setup_eval_ = false;  // refresh(): the set-up force evaluation (tangential springs as stored)
   double drum_omega_ = 0.0;
   bool drum_rotating_ = false;
   double time_s_ = 0.0;
