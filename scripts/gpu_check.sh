@@ -141,36 +141,34 @@ fi
 
 # ------------------------------------------------------------ 3.-5. the cohesive needle drum
 needles=tests/cases/gpu_needles_tiny.toml
+expect_same() {  # name ok(0/1) fail-detail dirA dirB pass-detail: records the byte comparison
+  local name=$1 ok=$2 why=$3 a=$4 b=$5 pass=$6 diff
+  if [ "$ok" != 1 ]; then
+    record "$name" FAIL "$why"
+  elif diff=$(same_files "$a" "$b"); then
+    record "$name" PASS "$pass"
+  else
+    record "$name" FAIL "differ: $(echo $diff)"
+  fi
+}
+
 run_biodem needles_a "$needles" "$OUT/needles_a" --device "$DEVICE"; sa=$?
 run_biodem needles_b "$needles" "$OUT/needles_b" --device "$DEVICE"; sb=$?
-if [ $sa -ne 0 ] || [ $sb -ne 0 ]; then
-  record "3. two identical runs" FAIL "a run failed (logs/needles_a.txt, needles_b.txt)"
-elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_b"); then
-  record "3. two identical runs" PASS "series, trace, snapshots and checkpoint byte-identical"
-else
-  record "3. two identical runs" FAIL "differ: $(echo $diff)"
-fi
+expect_same "3. two identical runs" "$([ $sa -eq 0 ] && [ $sb -eq 0 ] && echo 1)" \
+  "a run failed (logs/needles_a.txt, needles_b.txt)" "$OUT/needles_a" "$OUT/needles_b" \
+  "series, trace, snapshots and checkpoint byte-identical"
 
 # 3b. Every loop on two threads, however small (BIODEM_TEST_PARALLEL_THRESHOLD=0): emulated, the
 # kernels themselves run on two OpenMP threads; on a GPU, the host's share (insertion, sampling).
 BIODEM_TEST_PARALLEL_THRESHOLD=0 THREADS=2 run_biodem needles_par "$needles" "$OUT/needles_par" --device "$DEVICE"; sp=$?
-if [ $sp -ne 0 ] || [ $sa -ne 0 ]; then
-  record "3b. same run, every loop on 2 threads" FAIL "a run failed (logs/needles_par.txt)"
-elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_par"); then
-  record "3b. same run, every loop on 2 threads" PASS "byte-identical to the 1-thread run"
-else
-  record "3b. same run, every loop on 2 threads" FAIL "differ: $(echo $diff)"
-fi
+expect_same "3b. same run, every loop on 2 threads" "$([ $sp -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
+  "a run failed (logs/needles_par.txt)" "$OUT/needles_a" "$OUT/needles_par" "byte-identical to the 1-thread run"
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
 "$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?
-if [ $sk -ne 137 ] || [ $sr -ne 0 ]; then
-  record "4. kill at step 9,001 and resume" FAIL "kill status $sk (137 expected), resume status $sr"
-elif diff=$(same_files "$OUT/needles_a" "$OUT/needles_kill"); then
-  record "4. kill at step 9,001 and resume" PASS "outputs byte-identical to the uninterrupted run"
-else
-  record "4. kill at step 9,001 and resume" FAIL "differ: $(echo $diff)"
-fi
+expect_same "4. kill at step 9,001 and resume" "$([ $sk -eq 137 ] && [ $sr -eq 0 ] && echo 1)" \
+  "kill status $sk (137 expected), resume status $sr" "$OUT/needles_a" "$OUT/needles_kill" \
+  "outputs byte-identical to the uninterrupted run"
 
 compare_engines() {  # label cpu-dir gpu-dir alpha-tol-deg rel-tol -> prints detail; status
   python3 - "$2" "$3" "$4" "$5" <<'PY'
