@@ -5,28 +5,32 @@
 // `w_rel` = omega_i - omega_j (the wall's angular velocity for a wall).
 #pragma once
 #include "core/hd.hpp"
-#include "core/vec3.hpp"
+#include "core/lanes.hpp"
 
 namespace biodem::contact {
 
-struct ContactGeometry {
-  Vec3 normal;
-  double overlap_m = 0.0;
-  double distance_m = 0.0;  // centre distance (pair) or centre-to-surface distance (wall)
-  double r_eff_m = 0.0;     // R*
-  double m_eff_kg = 0.0;    // m* (body masses)
-  Vec3 lever_i;             // from the centre of sphere i to the contact point
-  Vec3 lever_j;             // from the centre of sphere j to the contact point (unused for walls)
-  Vec3 v_rel;
-  Vec3 w_rel;
+/// R: double (vectors Vec3), or SIMD lanes of doubles, one contact per lane (core/lanes.hpp).
+template <class R>
+struct ContactGeometryT {
+  vec3_t<R> normal{};
+  R overlap_m = 0.0;
+  R distance_m = 0.0;  // centre distance (pair) or centre-to-surface distance (wall)
+  R r_eff_m = 0.0;     // R*
+  R m_eff_kg = 0.0;    // m* (body masses)
+  vec3_t<R> lever_i{};  // from the centre of sphere i to the contact point
+  vec3_t<R> lever_j{};  // from the centre of sphere j to the contact point (unused for walls)
+  vec3_t<R> v_rel{};
+  vec3_t<R> w_rel{};
 };
+using ContactGeometry = ContactGeometryT<double>;
 
 /// Sphere-sphere geometry. Contact point: the middle of the overlap along the normal, i.e. at
 /// distance r_i - delta/2 from centre i.
-BIODEM_HD inline ContactGeometry sphere_sphere_geometry(const Vec3& d_ij, double dist, double r_i, double r_j,
-                                              double m_i, double m_j, const Vec3& v_i, const Vec3& v_j,
-                                              const Vec3& w_i, const Vec3& w_j) {
-  ContactGeometry g;
+template <class R>
+BIODEM_HD inline ContactGeometryT<R> sphere_sphere_geometry(const vec3_t<R>& d_ij, R dist, R r_i, R r_j, R m_i, R m_j,
+                                                            const vec3_t<R>& v_i, const vec3_t<R>& v_j,
+                                                            const vec3_t<R>& w_i, const vec3_t<R>& w_j) {
+  ContactGeometryT<R> g;
   g.distance_m = dist;
   g.normal = d_ij / dist;
   g.overlap_m = r_i + r_j - dist;

@@ -22,46 +22,65 @@
 namespace biodem::contact {
 
 /// Per-contact history (tangential spring and rolling spring), zero at first touch.
-struct ContactHistory {
-  Vec3 xi;   // accumulated tangential displacement, m
-  Vec3 m_r;  // EPSD2 rolling torque, N m
+template <class R>
+struct ContactHistoryT {
+  vec3_t<R> xi{};   // accumulated tangential displacement, m
+  vec3_t<R> m_r{};  // EPSD2 rolling torque, N m
 };
+using ContactHistory = ContactHistoryT<double>;
 
-struct ContactOutput {
-  Vec3 force_i;   // on i; -force_i acts on j
-  Vec3 torque_i;  // about i's sphere centre
-  Vec3 torque_j;  // about j's sphere centre (unused for walls)
-  double normal_force_n = 0.0;  // scalar normal force after damping and cohesion
-  double limit_force_n = 0.0;   // the scalar normal force whose magnitude bounds friction and rolling
+template <class R>
+struct ContactOutputT {
+  vec3_t<R> force_i{};   // on i; -force_i acts on j
+  vec3_t<R> torque_i{};  // about i's sphere centre
+  vec3_t<R> torque_j{};  // about j's sphere centre (unused for walls)
+  R normal_force_n = 0.0;  // scalar normal force after damping and cohesion
+  R limit_force_n = 0.0;   // the scalar normal force whose magnitude bounds friction and rolling
 };
+using ContactOutput = ContactOutputT<double>;
 
-template <bool Cohesion, bool Rolling>
-BIODEM_HD inline ContactOutput evaluate_contact(const ContactGeometry& g, const PairParams& p, ContactHistory& h,
-                                      double cohesion_area_m2, double dt) {
-  const Vec3& n = g.normal;
-  const double v_n = dot(g.v_rel, n);
-  double f_n = hertz_elastic_force(p.y_eff_pa, g.r_eff_m, g.overlap_m) -
-               normal_damping_coefficient(p.beta, p.y_eff_pa, g.r_eff_m, g.overlap_m, g.m_eff_kg) * v_n;
-  double f_limit = f_n;
+/// The pair parameters of each lane's contact, for SIMD lanes (the scalar laws take PairParams).
+/// tangential_reduce is one setting for the whole case ([contact]), so it is not a lane value.
+template <class R>
+struct PairParamsT {
+  R y_eff_pa = 0.0, g_eff_pa = 0.0, beta = 0.0, friction = 0.0, rolling_friction = 0.0,
+    cohesion_energy_density_j_m3 = 0.0;
+  bool tangential_reduce = false;
+};
+template <class R> struct PairParamsOf { using type = PairParamsT<R>; };
+template <> struct PairParamsOf<double> { using type = PairParams; };
+
+/// R: double (one contact; the GPU kernels, walls, tests), or SIMD lanes of doubles (one contact
+/// per lane, the CPU pair pass: src/sim/pair_pass_lanes.hpp). Each lane computes what the scalar
+/// call computes, in the same order (core/lanes.hpp).
+template <bool Cohesion, bool Rolling, class R>
+BIODEM_HD inline ContactOutputT<R> evaluate_contact(const ContactGeometryT<R>& g,
+                                                    const typename PairParamsOf<R>::type& p, ContactHistoryT<R>& h,
+                                                    R cohesion_area_m2, double dt) {
+  const vec3_t<R>& n = g.normal;
+  const R v_n = dot(g.v_rel, n);
+  R f_n = hertz_elastic_force(p.y_eff_pa, g.r_eff_m, g.overlap_m) -
+          normal_damping_coefficient(p.beta, p.y_eff_pa, g.r_eff_m, g.overlap_m, g.m_eff_kg) * v_n;
+  R f_limit = f_n;
   if constexpr (Cohesion) {
     f_n -= sjkr_force(p.cohesion_energy_density_j_m3, cohesion_area_m2);
     if (p.tangential_reduce) f_limit = f_n;
   }
-  const double abs_f_n = f_limit < 0.0 ? -f_limit : f_limit;
+  const R abs_f_n = lane_abs(f_limit);
 
-  const Vec3 v_t = g.v_rel - v_n * n;
-  const double k_t = mindlin_tangential_stiffness(p.g_eff_pa, g.r_eff_m, g.overlap_m);
-  const double gamma_t = tangential_damping_coefficient(p.beta, p.g_eff_pa, g.r_eff_m, g.overlap_m, g.m_eff_kg);
-  const TangentialResult t = mindlin_tangential_force(h.xi, v_t, n, k_t, gamma_t, p.friction, abs_f_n, dt);
+  const vec3_t<R> v_t = g.v_rel - v_n * n;
+  const R k_t = mindlin_tangential_stiffness(p.g_eff_pa, g.r_eff_m, g.overlap_m);
+  const R gamma_t = tangential_damping_coefficient(p.beta, p.g_eff_pa, g.r_eff_m, g.overlap_m, g.m_eff_kg);
+  const vec3_t<R> t_force = mindlin_tangential_force(h.xi, v_t, n, k_t, gamma_t, p.friction, abs_f_n, dt).force;
 
-  ContactOutput out;
+  ContactOutputT<R> out;
   out.normal_force_n = f_n;
   out.limit_force_n = f_limit;
-  out.force_i = f_n * n + t.force;
-  out.torque_i = cross(g.lever_i, t.force);
-  out.torque_j = cross(g.lever_j, -t.force);
+  out.force_i = f_n * n + t_force;
+  out.torque_i = cross(g.lever_i, t_force);
+  out.torque_j = cross(g.lever_j, -t_force);
   if constexpr (Rolling) {
-    const Vec3 m = epsd2_rolling_torque(h.m_r, g.w_rel, n, k_t, g.r_eff_m, p.rolling_friction, abs_f_n, dt);
+    const vec3_t<R> m = epsd2_rolling_torque(h.m_r, g.w_rel, n, k_t, g.r_eff_m, p.rolling_friction, abs_f_n, dt);
     out.torque_i += m;
     out.torque_j -= m;
   }

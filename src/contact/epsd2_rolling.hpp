@@ -12,18 +12,25 @@
 #include "core/hd.hpp"
 #include <cmath>
 
-#include "core/vec3.hpp"
+#include "core/lanes.hpp"
 
 namespace biodem::contact {
 
-/// Updates `m_r` in place and returns the rolling torque on i.
-BIODEM_HD inline Vec3 epsd2_rolling_torque(Vec3& m_r, const Vec3& w_rel, const Vec3& n, double k_t, double r_eff_m,
-                                 double rolling_friction, double normal_force_abs, double dt) {
-  const Vec3 w_t = w_rel - dot(w_rel, n) * n;
+/// Updates `m_r` in place and returns the rolling torque on i. R: double (vectors Vec3), or SIMD
+/// lanes of doubles (core/lanes.hpp; the cap is then a blend).
+template <class R>
+BIODEM_HD inline vec3_t<R> epsd2_rolling_torque(vec3_t<R>& m_r, const vec3_t<R>& w_rel, const vec3_t<R>& n, R k_t,
+                                                R r_eff_m, R rolling_friction, R normal_force_abs, double dt) {
+  const vec3_t<R> w_t = w_rel - dot(w_rel, n) * n;
   m_r += (k_t * r_eff_m * r_eff_m * dt) * w_t;
-  const double limit = rolling_friction * r_eff_m * normal_force_abs;
-  const double mag2 = norm2(m_r);
-  if (mag2 > limit * limit) m_r *= limit / std::sqrt(mag2);
+  const R limit = rolling_friction * r_eff_m * normal_force_abs;
+  const R mag2 = norm2(m_r);
+  if constexpr (std::is_same_v<R, double>) {
+    if (mag2 > limit * limit) m_r *= limit / std::sqrt(mag2);
+  } else {
+    using std::sqrt;
+    m_r = lane_select(mag2 > limit * limit, m_r * (limit / sqrt(mag2)), m_r);
+  }
   return -m_r;
 }
 

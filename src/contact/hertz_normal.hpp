@@ -8,10 +8,14 @@
 
 namespace biodem::contact {
 
-BIODEM_HD inline double hertz_normal_stiffness(double y_eff_pa, double r_eff_m, double overlap_m) {
-  return 4.0 / 3.0 * y_eff_pa * std::sqrt(r_eff_m * overlap_m);
+// R: double, or SIMD lanes of doubles (core/lanes.hpp).
+template <class R>
+BIODEM_HD inline R hertz_normal_stiffness(R y_eff_pa, R r_eff_m, R overlap_m) {
+  using std::sqrt;
+  return 4.0 / 3.0 * y_eff_pa * sqrt(r_eff_m * overlap_m);
 }
-BIODEM_HD inline double hertz_elastic_force(double y_eff_pa, double r_eff_m, double overlap_m) {
+template <class R>
+BIODEM_HD inline R hertz_elastic_force(R y_eff_pa, R r_eff_m, R overlap_m) {
   return hertz_normal_stiffness(y_eff_pa, r_eff_m, overlap_m) * overlap_m;
 }
 BIODEM_HD inline double hertz_elastic_energy(double y_eff_pa, double r_eff_m, double overlap_m) {

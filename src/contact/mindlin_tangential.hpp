@@ -10,35 +10,47 @@
 #include "core/hd.hpp"
 #include <cmath>
 
-#include "core/vec3.hpp"
+#include "core/lanes.hpp"
 
 namespace biodem::contact {
 
-BIODEM_HD inline double mindlin_tangential_stiffness(double g_eff_pa, double r_eff_m, double overlap_m) {
-  return 8.0 * g_eff_pa * std::sqrt(r_eff_m * overlap_m);
+// R: double (vectors Vec3), or SIMD lanes of doubles (core/lanes.hpp; the cap is then a blend).
+template <class R>
+BIODEM_HD inline R mindlin_tangential_stiffness(R g_eff_pa, R r_eff_m, R overlap_m) {
+  using std::sqrt;
+  return 8.0 * g_eff_pa * sqrt(r_eff_m * overlap_m);
 }
 
-struct TangentialResult {
-  Vec3 force;  // on body i
-  bool sliding = false;
+template <class R>
+struct TangentialResultT {
+  vec3_t<R> force{};                  // on body i
+  decltype(R{} > R{}) sliding{};      // bool, or a lane mask
 };
+using TangentialResult = TangentialResultT<double>;
 
 /// Updates the history `xi` in place and returns the tangential force on i.
-BIODEM_HD inline TangentialResult mindlin_tangential_force(Vec3& xi, const Vec3& v_t, const Vec3& n, double k_t,
-                                                 double gamma_t, double friction, double normal_force_abs,
-                                                 double dt) {
+template <class R>
+BIODEM_HD inline TangentialResultT<R> mindlin_tangential_force(vec3_t<R>& xi, const vec3_t<R>& v_t, const vec3_t<R>& n, R k_t,
+                                                    R gamma_t, R friction, R normal_force_abs, double dt) {
   xi += v_t * dt;
   xi -= dot(xi, n) * n;
-  TangentialResult r;
-  const Vec3 spring = -k_t * xi;
-  const double limit = friction * normal_force_abs;
-  const double spring2 = norm2(spring);
-  if (spring2 > limit * limit) {
-    r.sliding = true;
-    r.force = spring * (limit / std::sqrt(spring2));
-    xi = r.force * (-1.0 / k_t);
+  const vec3_t<R> spring = -k_t * xi;
+  const R limit = friction * normal_force_abs;
+  const R spring2 = norm2(spring);
+  TangentialResultT<R> r;
+  r.sliding = spring2 > limit * limit;
+  if constexpr (std::is_same_v<R, double>) {
+    if (r.sliding) {
+      r.force = spring * (limit / std::sqrt(spring2));
+      xi = r.force * (-1.0 / k_t);
+    } else {
+      r.force = spring - gamma_t * v_t;
+    }
   } else {
-    r.force = spring - gamma_t * v_t;
+    using std::sqrt;
+    const vec3_t<R> slide = spring * (limit / sqrt(spring2));
+    xi = lane_select(r.sliding, slide * (-1.0 / k_t), xi);
+    r.force = lane_select(r.sliding, slide, spring - gamma_t * v_t);
   }
   return r;
 }

@@ -14,12 +14,15 @@
 
 namespace biodem::contact {
 
-BIODEM_HD inline double sjkr_area_sphere_sphere(double r_i, double r_j, double d) {
+// R: double, or SIMD lanes of doubles (core/lanes.hpp).
+template <class R>
+BIODEM_HD inline R sjkr_area_sphere_sphere(R r_i, R r_j, R d) {
   return std::numbers::pi * (r_i + r_j - d) * (d + r_i - r_j) * (d - r_i + r_j) * (d + r_i + r_j) / (4.0 * d * d);
 }
 BIODEM_HD inline double sjkr_area_sphere_wall(double r_i, double d) { return std::numbers::pi * (r_i * r_i - d * d); }
 /// Magnitude of the attractive force (to be subtracted from the repulsive normal force).
-BIODEM_HD inline double sjkr_force(double cohesion_energy_density_j_m3, double area_m2) {
+template <class R>
+BIODEM_HD inline R sjkr_force(R cohesion_energy_density_j_m3, R area_m2) {
   return cohesion_energy_density_j_m3 * area_m2;
 }
 

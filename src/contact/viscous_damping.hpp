@@ -18,17 +18,22 @@ BIODEM_HD inline double damping_beta(double restitution) {
   const double l = std::log(restitution);
   return l / std::sqrt(l * l + std::numbers::pi * std::numbers::pi);
 }
-/// gamma for a stiffness-like modulus S (S_n or S_t) and effective mass m*.
-BIODEM_HD inline double damping_coefficient(double beta, double s_modulus, double m_eff_kg) {
-  return -2.0 * std::sqrt(5.0 / 6.0) * beta * std::sqrt(s_modulus * m_eff_kg);
+/// gamma for a stiffness-like modulus S (S_n or S_t) and effective mass m*. R: double, or SIMD
+/// lanes of doubles (core/lanes.hpp).
+template <class R>
+BIODEM_HD inline R damping_coefficient(R beta, R s_modulus, R m_eff_kg) {
+  using std::sqrt;
+  return -2.0 * std::sqrt(5.0 / 6.0) * beta * sqrt(s_modulus * m_eff_kg);
 }
-BIODEM_HD inline double normal_damping_coefficient(double beta, double y_eff_pa, double r_eff_m, double overlap_m,
-                                         double m_eff_kg) {
-  return damping_coefficient(beta, 2.0 * y_eff_pa * std::sqrt(r_eff_m * overlap_m), m_eff_kg);
+template <class R>
+BIODEM_HD inline R normal_damping_coefficient(R beta, R y_eff_pa, R r_eff_m, R overlap_m, R m_eff_kg) {
+  using std::sqrt;
+  return damping_coefficient(beta, R(2.0 * y_eff_pa * sqrt(r_eff_m * overlap_m)), m_eff_kg);
 }
-BIODEM_HD inline double tangential_damping_coefficient(double beta, double g_eff_pa, double r_eff_m, double overlap_m,
-                                             double m_eff_kg) {
-  return damping_coefficient(beta, 8.0 * g_eff_pa * std::sqrt(r_eff_m * overlap_m), m_eff_kg);
+template <class R>
+BIODEM_HD inline R tangential_damping_coefficient(R beta, R g_eff_pa, R r_eff_m, R overlap_m, R m_eff_kg) {
+  using std::sqrt;
+  return damping_coefficient(beta, R(8.0 * g_eff_pa * sqrt(r_eff_m * overlap_m)), m_eff_kg);
 }
 
 }  // namespace biodem::contact
