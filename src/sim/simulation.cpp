@@ -25,6 +25,7 @@ Simulation::Simulation(std::vector<shapes::ClumpTemplate> templates, std::vector
       gravity_(gravity_m_s2) {
   cohesion_ = pairs_.any_cohesion();
   rolling_ = pairs_.any_rolling();
+  pair_kernel_ = pair_kernel_from_environment();
 }
 
 std::uint32_t Simulation::add_wall(const WallSpec& w) {
@@ -507,6 +508,7 @@ bool Simulation::step_job(bool drift, bool kick) {
   double drift_end_s = 0.0, pair_end_s = 0.0;
   std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
   ChunkCursors drift_chunks(threads_, blocks), pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
+  const PairPassData pass = pair_pass_data();
   team().run(threads_, [&](int me, int team_size) {
     if (drift) {
       drift_chunks.for_each(me, team_size, [&](int k) {
@@ -525,8 +527,8 @@ bool Simulation::step_job(bool drift, bool kick) {
     pair_chunks.for_each(me, team_size, [&](int k) {
       const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
       if (b0 == b1) return;
-      per[me].pairs += pair_rows<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                    bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+      per[me].pairs += sim::pair_rows<Cohesion, Rolling>(
+          pair_kernel_, pass, bodies_.first_sphere[b0], bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
     });
     if (profile_on_) per[me].busy_s = seconds_since(tp);
     team().barrier();
@@ -602,57 +604,26 @@ void Simulation::update_work_blocks() {
   blocks_for_ = {nb, static_cast<std::size_t>(threads)};
 }
 
+PairPassData Simulation::pair_pass_data() {
+  PairPassData d;
+  d.position_m = spheres_.position_m.data();
+  d.velocity_m_s = spheres_.velocity_m_s.data();
+  d.angular_velocity_rad_s = spheres_.angular_velocity_rad_s.data();
+  d.radius_m = spheres_.radius_m.data();
+  d.body_mass_kg = spheres_.body_mass_kg.data();
+  d.material = spheres_.material.data();
+  d.pairs = &pairs_;
+  d.list = &list_;
+  d.force_n = spheres_.force_n.data();
+  d.torque_n_m = spheres_.torque_n_m.data();
+  d.dt_s = dt_s_;
+  d.periodic = domain_.any_periodic();
+  return d;
+}
+
 void Simulation::forces_and_kick(bool kick) {
   if (cohesion_) rolling_ ? step_job<true, true>(false, kick) : step_job<true, false>(false, kick);
   else rolling_ ? step_job<false, true>(false, kick) : step_job<false, false>(false, kick);
-}
-
-template <bool Cohesion, bool Rolling>
-std::size_t Simulation::pair_rows(std::size_t i0, std::size_t i1) {
-  // Pair entries of rows i0..i1: each entry is written by the thread that owns its row; the row
-  // owner sums its own side at once, and stores for the j side what j will gather.
-  const auto& s = spheres_;
-  auto& L = list_;
-  const bool periodic = domain_.any_periodic();
-  const double dt = dt_s_;
-  std::size_t contacts = 0;
-  for (std::size_t i = i0; i < i1; ++i) {
-    const Vec3 xi = s.position_m[i];
-    const double ri = s.radius_m[i];
-    Vec3 f_own, t_own;
-    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
-      const std::uint32_t j = L.j[k];
-      Vec3 d = xi - s.position_m[j];
-      if (periodic) d -= L.shift(k);
-      const double rj = s.radius_m[j];
-      const double dist2 = norm2(d), rsum = ri + rj;
-      if (dist2 >= rsum * rsum) {
-        if (L.touching[k]) {
-          L.touching[k] = 0;
-          L.history[k] = {};
-          L.force_i[k] = {};
-          L.torque_j[k] = {};
-        }
-        continue;
-      }
-      const double dist = std::sqrt(dist2);
-      const contact::ContactGeometry g = contact::sphere_sphere_geometry(
-          d, dist, ri, rj, s.body_mass_kg[i], s.body_mass_kg[j], s.velocity_m_s[i], s.velocity_m_s[j],
-          s.angular_velocity_rad_s[i], s.angular_velocity_rad_s[j]);
-      const contact::PairParams& p = pairs_(s.material[i], s.material[j]);
-      const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt);
-      L.touching[k] = 1;
-      L.force_i[k] = out.force_i;
-      L.torque_j[k] = out.torque_j;
-      f_own += out.force_i;
-      t_own += out.torque_i;
-      ++contacts;
-    }
-    spheres_.force_n[i] = f_own;
-    spheres_.torque_n_m[i] = t_own;
-  }
-  return contacts;
 }
 
 template <bool Cohesion, bool Rolling>

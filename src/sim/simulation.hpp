@@ -26,6 +26,7 @@
 #include "contact/contact_model.hpp"
 #include "contact/pair_table.hpp"
 #include "neighbor/verlet_list.hpp"
+#include "sim/pair_pass.hpp"
 #include "shapes/clump_template.hpp"
 #include "state/particle_store.hpp"
 #include "walls/wall_geometry.hpp"
@@ -161,6 +162,10 @@ class Simulation {
   void step();
   /// Per-phase timers of step() (off by default: they read the clock a few times per step).
   void set_profile(bool on) { profile_on_ = on; }
+  /// The implementation of the sphere-sphere contacts (sim/pair_pass.hpp): by default the widest
+  /// SIMD kernel the CPU supports, or the one BIODEM_PAIR_KERNEL names. Same results with any.
+  void set_pair_kernel(PairKernel k) { pair_kernel_ = k; }
+  PairKernel pair_kernel() const { return pair_kernel_; }
   const StepProfile& profile() const { return profile_; }
   void reset_profile() { profile_ = {}; }
   void run_steps(std::uint64_t n) { for (std::uint64_t i = 0; i < n; ++i) step(); }
@@ -230,8 +235,7 @@ class Simulation {
   bool step_job(bool drift, bool kick);
   /// Contact forces, body sums and (with kick) the second half kick, in one parallel region.
   void forces_and_kick(bool kick);
-  template <bool Cohesion, bool Rolling>
-  std::size_t pair_rows(std::size_t i0, std::size_t i1);
+  PairPassData pair_pass_data();
   template <bool Cohesion, bool Rolling>
   std::size_t gather_and_walls(std::size_t i0, std::size_t i1);
   void reduce_and_kick(std::size_t b0, std::size_t b1, bool kick);
@@ -288,6 +292,7 @@ class Simulation {
   std::pair<std::size_t, std::size_t> blocks_for_;  // (bodies, threads) the blocks were cut for
   bool profile_on_ = false;
   StepProfile profile_;
+  PairKernel pair_kernel_ = PairKernel::Scalar;  // set in the constructor (best available)
 };
 
 }  // namespace biodem::sim

@@ -1,0 +1,208 @@
+#include "sim/pair_pass.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <string_view>
+
+#include "contact/contact_model.hpp"
+#include "core/error.hpp"
+
+namespace biodem::sim {
+namespace {
+
+/// A row entry whose spheres no longer touch: its history and stored results are cleared.
+inline void release_entry(neighbor::VerletList& L, std::uint32_t k) {
+  if (L.touching[k]) {
+    L.touching[k] = 0;
+    L.history[k] = {};
+    L.force_i[k] = {};
+    L.torque_j[k] = {};
+  }
+}
+
+template <bool Cohesion, bool Rolling>
+std::size_t rows_scalar(const PairPassData& d, std::size_t i0, std::size_t i1) {
+  auto& L = *d.list;
+  const double dt = d.dt_s;
+  std::size_t contacts = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
+    const Vec3 xi = d.position_m[i];
+    const double ri = d.radius_m[i];
+    Vec3 f_own, t_own;
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      const std::uint32_t j = L.j[k];
+      Vec3 dij = xi - d.position_m[j];
+      if (d.periodic) dij -= L.shift(k);
+      const double rj = d.radius_m[j];
+      const double dist2 = norm2(dij), rsum = ri + rj;
+      if (dist2 >= rsum * rsum) {
+        release_entry(L, k);
+        continue;
+      }
+      const double dist = std::sqrt(dist2);
+      const contact::ContactGeometry g = contact::sphere_sphere_geometry(
+          dij, dist, ri, rj, d.body_mass_kg[i], d.body_mass_kg[j], d.velocity_m_s[i], d.velocity_m_s[j],
+          d.angular_velocity_rad_s[i], d.angular_velocity_rad_s[j]);
+      const contact::PairParams& p = (*d.pairs)(d.material[i], d.material[j]);
+      const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, L.history[k], area, dt);
+      L.touching[k] = 1;
+      L.force_i[k] = out.force_i;
+      L.torque_j[k] = out.torque_j;
+      f_own += out.force_i;
+      t_own += out.torque_i;
+      ++contacts;
+    }
+    d.force_n[i] = f_own;
+    d.torque_n_m[i] = t_own;
+  }
+  return contacts;
+}
+
+/// The lane kernel: stage touching contacts, evaluate a full batch in lanes, scatter in order.
+template <bool Cohesion, bool Rolling>
+class LaneRows {
+ public:
+  using Evaluate = void (*)(PairBatch&);
+  LaneRows(const PairPassData& d, Evaluate evaluate) : d_(d), evaluate_(evaluate) { b_.data = &d; }
+
+  std::size_t run(std::size_t i0, std::size_t i1) {
+    auto& L = *d_.list;
+    std::size_t contacts = 0;
+    for (std::size_t i = i0; i < i1; ++i) {
+      const Vec3 xi = d_.position_m[i];
+      const double ri = d_.radius_m[i];
+      d_.force_n[i] = {};  // the batch's scatter adds the row's contacts in entry order
+      d_.torque_n_m[i] = {};
+      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+        const std::uint32_t j = L.j[k];
+        Vec3 dij = xi - d_.position_m[j];
+        if (d_.periodic) dij -= L.shift(k);
+        const double rj = d_.radius_m[j];
+        const double dist2 = norm2(dij), rsum = ri + rj;
+        // Without a branch on the distance test (about half the entries touch, so it would be
+        // mispredicted often): every entry is written to the next slot, which only a touching
+        // entry keeps.
+        const bool touch = dist2 < rsum * rsum;
+        stage(static_cast<std::uint32_t>(i), j, k, dij, dist2);
+        b_.n += touch;
+        contacts += touch;
+        if (static_cast<bool>(L.touching[k]) & !touch) release_entry(L, k);  // rare: a contact ended
+        if (b_.n == PairBatch::kCapacity) flush();
+      }
+    }
+    flush();
+    return contacts;
+  }
+
+ private:
+  void stage(std::uint32_t i, std::uint32_t j, std::uint32_t k, const Vec3& dij, double dist2) {
+    using F = PairBatch;
+    const int s = b_.n;
+    b_.a[F::Dx][s] = dij.x;
+    b_.a[F::Dy][s] = dij.y;
+    b_.a[F::Dz][s] = dij.z;
+    b_.a[F::Dist2][s] = dist2;
+    b_.i[s] = i;
+    b_.j[s] = j;
+    b_.k[s] = k;
+    b_.params[s] = &(*d_.pairs)(d_.material[i], d_.material[j]);
+  }
+
+  void flush() {
+    const int n = b_.n;
+    if (n == 0) return;
+    // Pad to a multiple of the widest lane count with copies of the last contact (results unused).
+    for (int s = n; s % 8 != 0; ++s) {
+      for (int f = PairBatch::Dx; f <= PairBatch::Dist2; ++f) b_.a[f][s] = b_.a[f][n - 1];
+      b_.i[s] = b_.i[n - 1];
+      b_.j[s] = b_.j[n - 1];
+      b_.k[s] = b_.k[n - 1];
+      b_.params[s] = b_.params[n - 1];
+    }
+    evaluate_(b_);
+    using F = PairBatch;
+    auto& L = *d_.list;
+    for (int s = 0; s < n; ++s) {
+      auto get3 = [&](int f) { return Vec3{b_.a[f][s], b_.a[f + 1][s], b_.a[f + 2][s]}; };
+      const std::uint32_t k = b_.k[s], i = b_.i[s];
+      const Vec3 f_i = get3(F::Fx);
+      L.touching[k] = 1;
+      L.force_i[k] = f_i;
+      L.torque_j[k] = get3(F::Tjx);
+      L.history[k].xi = get3(F::Xix);
+      if constexpr (Rolling) L.history[k].m_r = get3(F::Mrx);
+      d_.force_n[i] += f_i;
+      d_.torque_n_m[i] += get3(F::Tix);
+    }
+    b_.n = 0;
+  }
+
+  const PairPassData& d_;
+  Evaluate evaluate_;
+  PairBatch b_;
+};
+
+bool cpu_has(PairKernel k) {
+#if defined(BIODEM_X86_LANES)
+  if (k == PairKernel::Lanes4) return __builtin_cpu_supports("avx2");
+  if (k == PairKernel::Lanes8) return __builtin_cpu_supports("avx512f");
+  return true;
+#else
+  return k == PairKernel::Scalar || k == PairKernel::Lanes2;
+#endif
+}
+
+}  // namespace
+
+bool pair_kernel_available(PairKernel k) { return cpu_has(k); }
+
+PairKernel best_pair_kernel() {
+  for (PairKernel k : {PairKernel::Lanes8, PairKernel::Lanes4})
+    if (cpu_has(k)) return k;
+  return PairKernel::Lanes2;
+}
+
+std::string pair_kernel_name(PairKernel k) {
+  switch (k) {
+    case PairKernel::Scalar: return "scalar";
+    case PairKernel::Lanes2: return "2 lanes (SSE2)";
+    case PairKernel::Lanes4: return "4 lanes (AVX2)";
+    case PairKernel::Lanes8: return "8 lanes (AVX-512F)";
+  }
+  return "?";
+}
+
+PairKernel pair_kernel_from_environment() {
+  const char* v = std::getenv("BIODEM_PAIR_KERNEL");
+  if (v == nullptr || *v == '\0') return best_pair_kernel();
+  const std::string_view s(v);
+  PairKernel k;
+  if (s == "scalar") k = PairKernel::Scalar;
+  else if (s == "2") k = PairKernel::Lanes2;
+  else if (s == "4") k = PairKernel::Lanes4;
+  else if (s == "8") k = PairKernel::Lanes8;
+  else throw Error("BIODEM_PAIR_KERNEL = '" + std::string(s) + "': expected scalar, 2, 4 or 8");
+  if (!cpu_has(k)) throw Error("BIODEM_PAIR_KERNEL = " + std::string(s) + ": " + pair_kernel_name(k) +
+                               " is not available on this CPU or in this build");
+  return k;
+}
+
+template <bool Cohesion, bool Rolling>
+std::size_t pair_rows(PairKernel kernel, const PairPassData& d, std::size_t i0, std::size_t i1) {
+  switch (kernel) {
+    case PairKernel::Scalar: return rows_scalar<Cohesion, Rolling>(d, i0, i1);
+#if defined(BIODEM_X86_LANES)
+    case PairKernel::Lanes4: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes4<Cohesion, Rolling>).run(i0, i1);
+    case PairKernel::Lanes8: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes8<Cohesion, Rolling>).run(i0, i1);
+#endif
+    default: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes2<Cohesion, Rolling>).run(i0, i1);
+  }
+}
+
+template std::size_t pair_rows<false, false>(PairKernel, const PairPassData&, std::size_t, std::size_t);
+template std::size_t pair_rows<false, true>(PairKernel, const PairPassData&, std::size_t, std::size_t);
+template std::size_t pair_rows<true, false>(PairKernel, const PairPassData&, std::size_t, std::size_t);
+template std::size_t pair_rows<true, true>(PairKernel, const PairPassData&, std::size_t, std::size_t);
+
+}  // namespace biodem::sim
