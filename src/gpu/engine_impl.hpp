@@ -317,23 +317,14 @@ inline void Engine::upload() {
     const auto whist = wall_history_;
     const auto wtouch = wall_touching_;
     compute_forces();
-    // Keep the history of pairs that were touching before; new contacts start from zero.
-    std::vector<contact::ContactHistory> h0, h1, w0, w1;
-    std::vector<std::uint8_t> t0, t1, u0, u1;
-    to_host(h0, hist);
-    to_host(t0, touch);
-    to_host(h1, rows_.history);
-    to_host(t1, rows_.touching);
-    for (std::size_t k = 0; k < h1.size(); ++k)
-      if (t1[k]) h1[k] = t0[k] ? h0[k] : contact::ContactHistory{};
-    to_device(rows_.history, h1);
-    to_host(w0, whist);
-    to_host(u0, wtouch);
-    to_host(w1, wall_history_);
-    to_host(u1, wall_touching_);
-    for (std::size_t k = 0; k < w1.size(); ++k)
-      if (u1[k]) w1[k] = u0[k] ? w0[k] : contact::ContactHistory{};
-    to_device(wall_history_, w1);
+    // Keep the history of pairs that were touching before; new contacts start from zero. On the
+    // device, without a round trip through the host.
+    launch(static_cast<std::uint32_t>(rows_.history.size()),
+           KeepSetupHistory{raw<contact::ContactHistory>(rows_.history), thrust::raw_pointer_cast(hist.data()),
+                            raw<std::uint8_t>(rows_.touching), thrust::raw_pointer_cast(touch.data())});
+    launch(static_cast<std::uint32_t>(wall_history_.size()),
+           KeepSetupHistory{raw<contact::ContactHistory>(wall_history_), thrust::raw_pointer_cast(whist.data()),
+                            raw<std::uint8_t>(wall_touching_), thrust::raw_pointer_cast(wtouch.data())});
     launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false});
   }
 }

@@ -121,6 +121,19 @@ struct IsNotFinite {
   }
 };
 
+/// After the set-up force evaluation (not a time step): a pair or wall contact that was
+/// touching before keeps the history it had, a new one starts from zero (as the CPU engine's
+/// refresh()). One index per row or wall slot.
+struct KeepSetupHistory {
+  contact::ContactHistory* history;              // after the evaluation
+  const contact::ContactHistory* history_before;
+  const std::uint8_t* touching;                  // after the evaluation
+  const std::uint8_t* touching_before;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (touching[k]) history[k] = touching_before[k] ? history_before[k] : contact::ContactHistory{};
+  }
+};
+
 struct Box {
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
 };
