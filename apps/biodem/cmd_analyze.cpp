@@ -14,8 +14,8 @@
 #include "analysis/flowability.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
-#include "io/plot_writer.hpp"
-#include "io/series_csv.hpp"
+#include "output/plot_writer.hpp"
+#include "output/series_csv.hpp"
 
 namespace biodem::cli {
 
@@ -43,11 +43,11 @@ void write_events_csv(const fs::path& path, const FlowabilityResult& r) {
   std::ofstream out(path, std::ios::trunc);
   out << "start_time_s,start_revolution,uas_deg,end_time_s,drop_deg,interval_s,f_percent\n";
   for (const auto& e : r.detection.events) {
-    out << io::csv_number(e.start_time_s, 12) << ',' << io::csv_number(e.start_revolution, 12)
-        << ',' << io::csv_number(e.uas_deg) << ',' << io::csv_number(e.end_time_s, 12) << ','
-        << io::csv_number(e.drop_deg) << ','
-        << (e.interval_s ? io::csv_number(*e.interval_s, 12) : "") << ','
-        << (e.f_percent ? io::csv_number(*e.f_percent) : "") << '\n';
+    out << output::csv_number(e.start_time_s, 12) << ',' << output::csv_number(e.start_revolution, 12)
+        << ',' << output::csv_number(e.uas_deg) << ',' << output::csv_number(e.end_time_s, 12) << ','
+        << output::csv_number(e.drop_deg) << ','
+        << (e.interval_s ? output::csv_number(*e.interval_s, 12) : "") << ','
+        << (e.f_percent ? output::csv_number(*e.f_percent) : "") << '\n';
   }
   if (!out) throw Error("cannot write '" + path.string() + "'");
 }
@@ -58,9 +58,9 @@ void write_descriptors_csv(const fs::path& path, const FlowabilityResult& r) {
   const auto table = analysis::descriptor_table();
   for (std::size_t k = 0; k < table.size(); ++k) {
     const auto& d = r.distributions[k];
-    out << table[k].name << ',' << d.count << ',' << io::csv_number(d.mean) << ','
-        << io::csv_number(d.p10) << ',' << io::csv_number(d.p50) << ','
-        << io::csv_number(d.p90) << ',' << io::csv_number(d.span) << '\n';
+    out << table[k].name << ',' << d.count << ',' << output::csv_number(d.mean) << ','
+        << output::csv_number(d.p10) << ',' << output::csv_number(d.p50) << ','
+        << output::csv_number(d.p90) << ',' << output::csv_number(d.span) << '\n';
   }
   if (!out) throw Error("cannot write '" + path.string() + "'");
 }
@@ -78,19 +78,19 @@ std::string fmt(double v, const char* f = "%.4g") {
 constexpr std::size_t kDetailedEvents = 60;
 constexpr std::size_t kZoomEvents = 20;
 
-io::Plot alpha_plot(const analysis::Series& s, const FlowabilityResult& r, std::size_t first_event,
+output::Plot alpha_plot(const analysis::Series& s, const FlowabilityResult& r, std::size_t first_event,
                     std::size_t last_event, bool detailed) {
-  io::Plot a;
+  output::Plot a;
   a.title = "Centroid angle";
   a.x_label = "revolution (turns)";
   a.y_label = "alpha (deg)";
   a.note = std::to_string(r.detection.events.size()) + " events, threshold " +
            fmt(r.detection.threshold_deg, "%.3g") + " deg";
-  io::PlotSeries line{"alpha", s.revolution, s.alpha_deg};
+  output::PlotSeries line{"alpha", s.revolution, s.alpha_deg};
   line.line_width = 1.0;
-  io::PlotSeries starts{"event start (UAS)", {}, {}, io::PlotStyle::markers,
-                        io::Marker::triangle_down, 3};
-  io::PlotSeries ends{"event end", {}, {}, io::PlotStyle::markers, io::Marker::triangle_up, 2};
+  output::PlotSeries starts{"event start (UAS)", {}, {}, output::PlotStyle::markers,
+                        output::Marker::triangle_down, 3};
+  output::PlotSeries ends{"event end", {}, {}, output::PlotStyle::markers, output::Marker::triangle_up, 2};
   for (std::size_t k = first_event; k < last_event; ++k) {
     const auto& e = r.detection.events[k];
     starts.x.push_back(s.revolution[e.start_index]);
@@ -130,10 +130,10 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
   // alpha against revolution with the events marked.
   const std::size_t n_events = r.detection.events.size();
   const bool detailed = n_events <= kDetailedEvents;
-  io::write_plot(alpha_plot(s, r, 0, n_events, detailed), dir / "alpha_vs_revolution");
+  output::write_plot(alpha_plot(s, r, 0, n_events, detailed), dir / "alpha_vs_revolution");
   if (!detailed) {
     // The first kZoomEvents events with both markers, on their own range.
-    io::Plot z = alpha_plot(s, r, 0, kZoomEvents, true);
+    output::Plot z = alpha_plot(s, r, 0, kZoomEvents, true);
     const auto& e0 = r.detection.events.front();
     const auto& e1 = r.detection.events[kZoomEvents - 1];
     const std::size_t i0 = e0.start_index > 20 ? e0.start_index - 20 : 0;
@@ -150,7 +150,7 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
     z.y_min = lo - pad;
     z.y_max = hi + pad;
     z.title = "Centroid angle, first " + std::to_string(kZoomEvents) + " events";
-    io::write_plot(z, dir / "alpha_vs_revolution_zoom");
+    output::write_plot(z, dir / "alpha_vs_revolution_zoom");
   }
 
   // r^2 against time: every sample (grey) and, for long series, a running median over 1/300 of
@@ -159,28 +159,28 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
   bool has_r2 = false;
   for (double v : s.surface_r2) has_r2 = has_r2 || std::isfinite(v);
   if (has_r2) {
-    io::Plot p;
+    output::Plot p;
     p.title = "Free-surface irregularity";
     p.x_label = "time (s)";
     p.y_label = "surface r^2";
-    p.legend = io::LegendPlace::none;
-    io::PlotSeries l{"r^2", s.time_s, s.surface_r2};
+    p.legend = output::LegendPlace::none;
+    output::PlotSeries l{"r^2", s.time_s, s.surface_r2};
     l.line_width = 1.0;
     if (s.size() > 600) {
       const std::size_t w = std::max<std::size_t>(5, s.size() / 300);
-      io::PlotSeries med{"running median", {}, {}};
+      output::PlotSeries med{"running median", {}, {}};
       running_median(s.time_s, s.surface_r2, w, std::max<std::size_t>(1, w / 4), med.x, med.y);
       med.line_width = 2.0;
       med.color = 0;
       l.color = 7;  // grey
       l.label = "r^2 of each sample";
-      p.legend = io::LegendPlace::bottom_right;
+      p.legend = output::LegendPlace::bottom_right;
       p.note = "running median over " + std::to_string(w) + " samples";
       p.series = {l, med};
     } else {
       p.series = {l};
     }
-    io::write_plot(p, dir / "r2_vs_time");
+    output::write_plot(p, dir / "r2_vs_time");
   }
 
   // Cumulative distributions.
@@ -189,24 +189,24 @@ void write_plots(const fs::path& dir, const analysis::Series& s, const Flowabili
   for (std::size_t k = 0; k < table.size(); ++k) {
     if (r.values[k].empty()) continue;
     const auto cdf = analysis::empirical_cdf(r.values[k]);
-    io::Plot p;
+    output::Plot p;
     p.title = std::string("Cumulative distribution: ") + table[k].label;
     p.x_label = table[k].label;
     p.y_label = "cumulative fraction";
     p.y_min = 0.0;
     p.y_max = 1.0;
-    p.legend = io::LegendPlace::none;
+    p.legend = output::LegendPlace::none;
     const auto& d = r.distributions[k];
     p.note = "n = " + std::to_string(d.count) + ", e10 = " + fmt(d.p10) + ", e50 = " +
              fmt(d.p50) + ", e90 = " + fmt(d.p90) + ", span = " + fmt(d.span, "%.3g");
-    p.series = {io::PlotSeries{table[k].name, cdf.value, cdf.fraction, io::PlotStyle::step}};
-    io::write_plot(p, dir / stems[k]);
+    p.series = {output::PlotSeries{table[k].name, cdf.value, cdf.fraction, output::PlotStyle::step}};
+    output::write_plot(p, dir / stems[k]);
   }
 }
 
 int run_analyze(const AnalyzeOptions& o) {
-  const fs::path series_path = io::resolve_series_path(o.input);
-  const io::SeriesFile file = io::read_series_csv(series_path);
+  const fs::path series_path = output::resolve_series_path(o.input);
+  const output::SeriesFile file = output::read_series_csv(series_path);
   for (const auto& w : file.warnings) std::cerr << "warning: " << w << "\n";
 
   analysis::FlowabilityOptions fo;
@@ -250,7 +250,7 @@ int run_analyze(const AnalyzeOptions& o) {
   if (o.sweep) {
     const std::vector<double> hs(analysis::kSweepThresholdsDeg.begin(), analysis::kSweepThresholdsDeg.end());
     const auto rows = analysis::sweep_event_rule(s, fo, hs, analysis::sweep_rebound_fractions());
-    io::write_sweep_csv(dir / "threshold_sweep.csv", "", rows, true);
+    output::write_sweep_csv(dir / "threshold_sweep.csv", "", rows, true);
     std::printf("event-rule sweep (threshold_sweep.csv):\n%5s %8s %7s %10s %10s %10s\n", "rho", "h_deg", "events",
                 "uas_p50", "drop_p50", "f_p50");
     for (const auto& w : rows)
@@ -290,7 +290,7 @@ Action register_analyze(CLI::App& app) {
                 "and rebound fractions 0, 0.1, 0.15, 0.25, 0.5");
   sub->add_flag("--no-plots", o->no_plots, "write the CSV files only");
   return [o] {
-    if (!io::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
+    if (!output::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
     return run_analyze(*o);
   };
 }

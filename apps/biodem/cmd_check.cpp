@@ -4,8 +4,8 @@
 #include <string>
 
 #include "commands.hpp"
-#include "io/case_parser.hpp"
-#include "io/case_report.hpp"
+#include "case_file/case_parser.hpp"
+#include "output/case_report.hpp"
 
 namespace biodem::cli {
 
@@ -16,9 +16,9 @@ Action register_check(CLI::App& app) {
   static std::string case_path;
   sub->add_option("CASE", case_path, "case file (TOML)")->required();
   return [] {
-    const io::LoadedCase loaded = io::load_case(case_path);  // biodem::Error -> main prints it, exit 2
+    const case_file::LoadedCase loaded = case_file::load_case(case_path);  // biodem::Error -> main prints it, exit 2
     for (const auto& w : loaded.warnings) std::cerr << "warning: " << w << "\n";
-    std::cout << io::describe_case(loaded.config) << std::flush;
+    std::cout << output::describe_case(loaded.config) << std::flush;
     return 0;
   };
 }

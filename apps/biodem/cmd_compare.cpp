@@ -18,8 +18,8 @@
 #include "analysis/flowability.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
-#include "io/plot_writer.hpp"
-#include "io/series_csv.hpp"
+#include "output/plot_writer.hpp"
+#include "output/series_csv.hpp"
 
 namespace biodem::cli {
 
@@ -78,7 +78,7 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
   std::vector<std::vector<analysis::SweepRow>> all;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     all.push_back(analysis::sweep_event_rule(samples[i].data, fo, hs, rhos));
-    io::write_sweep_csv(out_dir / "compare_sweep.csv", samples[i].name, all.back(), i == 0, true);
+    output::write_sweep_csv(out_dir / "compare_sweep.csv", samples[i].name, all.back(), i == 0, true);
   }
   if (o.no_plots) return;
   struct Panel {
@@ -91,22 +91,22 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
                           {"compare_sweep_f", "median f (%)", &analysis::SweepRow::f_p50},
                           {"compare_sweep_events", "events", nullptr}};
   for (const auto& panel : panels) {
-    io::Plot p;
+    output::Plot p;
     p.title = std::string("Event rule: ") + panel.label + " against the threshold";
     p.x_label = "threshold h (deg)";
     p.y_label = panel.label;
     p.note = "line: rebound fraction " + fmt(o.rebound_fraction, "%g") + "; markers: rebound fraction 0";
-    p.legend = io::LegendPlace::top_right;
+    p.legend = output::LegendPlace::top_right;
     if (!panel.field) p.y_min = 0.0;
     // The chosen rebound fraction as a line per sample; rho = 0 as markers of the same colour.
     std::vector<double> rhos{o.rebound_fraction};
     if (o.rebound_fraction != 0.0) rhos.push_back(0.0);
     for (std::size_t i = 0; i < samples.size(); ++i)
       for (double rho : rhos) {
-        io::PlotSeries line;
+        output::PlotSeries line;
         line.label = rho == o.rebound_fraction ? samples[i].name : "";
         line.color = static_cast<int>(i);
-        line.style = rho == o.rebound_fraction ? io::PlotStyle::line : io::PlotStyle::markers;
+        line.style = rho == o.rebound_fraction ? output::PlotStyle::line : output::PlotStyle::markers;
         line.marker_size = 3.0;
         for (const auto& w : all[i])
           if (w.rebound_fraction == rho) {
@@ -117,7 +117,7 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
           }
         p.series.push_back(std::move(line));
       }
-    io::write_plot(p, out_dir / panel.stem);
+    output::write_plot(p, out_dir / panel.stem);
   }
 }
 
@@ -144,8 +144,8 @@ int run_compare(const CompareOptions& o) {
     if (s.name.empty()) s.name = "sample" + std::to_string(i + 1);
     for (int k = 2; used.count(s.name); ++k) s.name += "_" + std::to_string(k);
     used.insert(s.name);
-    s.series = io::resolve_series_path(o.inputs[i]);
-    const io::SeriesFile file = io::read_series_csv(s.series);
+    s.series = output::resolve_series_path(o.inputs[i]);
+    const output::SeriesFile file = output::read_series_csv(s.series);
     for (const auto& w : file.warnings) std::cerr << "warning: " << s.name << ": " << w << "\n";
     try {
       s.result = analysis::analyze_flowability(file.series, fo);
@@ -199,9 +199,9 @@ int run_compare(const CompareOptions& o) {
       for (std::size_t i = 0; i < samples.size(); ++i) {
         const auto& d = samples[i].result.distributions[k];
         out << samples[i].name << ',' << table[k].name << ',' << d.count << ','
-            << io::csv_number(d.mean) << ',' << io::csv_number(d.p10) << ','
-            << io::csv_number(d.p50) << ',' << io::csv_number(d.p90) << ','
-            << io::csv_number(d.span) << ',';
+            << output::csv_number(d.mean) << ',' << output::csv_number(d.p10) << ','
+            << output::csv_number(d.p50) << ',' << output::csv_number(d.p90) << ','
+            << output::csv_number(d.span) << ',';
         if (ranks[k][i] > 0) out << ranks[k][i];
         out << ',' << (ranks[k][i] > 0 ? analysis::roman(ranks[k][i]) : "") << '\n';
       }
@@ -228,23 +228,23 @@ int run_compare(const CompareOptions& o) {
   if (!o.no_plots) {
     const char* stems[] = {"compare_cdf_uas", "compare_cdf_drop", "compare_cdf_f", "compare_cdf_r2"};
     for (std::size_t k = 0; k < table.size(); ++k) {
-      io::Plot p;
+      output::Plot p;
       p.title = std::string("Cumulative distributions: ") + table[k].label;
       p.x_label = table[k].label;
       p.y_label = "cumulative fraction";
       p.y_min = 0.0;
       p.y_max = 1.0;
-      p.legend = io::LegendPlace::bottom_right;
+      p.legend = output::LegendPlace::bottom_right;
       for (std::size_t i = 0; i < samples.size(); ++i) {
         const auto cdf = analysis::empirical_cdf(samples[i].result.values[k]);
-        io::PlotSeries line{samples[i].name + " (" + analysis::roman(ranks[k][i]) + ")", cdf.value,
-                            cdf.fraction, io::PlotStyle::step};
+        output::PlotSeries line{samples[i].name + " (" + analysis::roman(ranks[k][i]) + ")", cdf.value,
+                            cdf.fraction, output::PlotStyle::step};
         line.color = static_cast<int>(i);
         p.series.push_back(std::move(line));
       }
       bool any = false;
       for (const auto& s : p.series) any = any || !s.x.empty();
-      if (any) io::write_plot(p, out_dir / stems[k]);
+      if (any) output::write_plot(p, out_dir / stems[k]);
     }
   }
   if (o.sweep) write_sweep(o, fo, samples, out_dir);
@@ -281,7 +281,7 @@ Action register_compare(CLI::App& app) {
   o->rpm_opt = sub->add_option("--rpm", o->rpm, "drum speed for every sample (default: from each series)");
   sub->add_flag("--no-plots", o->no_plots, "write compare.csv only");
   return [o] {
-    if (!io::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
+    if (!output::plots_built()) o->no_plots = true;  // lean build without OpenCV: CSV files only
     return run_compare(*o);
   };
 }

@@ -4,8 +4,8 @@
 
 #include "commands.hpp"
 #include "driver/run_driver.hpp"
-#include "io/case_parser.hpp"
-#include "io/progress.hpp"
+#include "case_file/case_parser.hpp"
+#include "output/progress.hpp"
 
 namespace biodem::cli {
 
@@ -25,7 +25,7 @@ Action register_run(CLI::App& app) {
                   "threads, for testing); overrides [run] device")
       ->check(CLI::IsMember({"cpu", "gpu", "gpu-emulated"}));
   return [] {
-    const io::LoadedCase loaded = io::load_case(case_path);
+    const case_file::LoadedCase loaded = case_file::load_case(case_path);
     for (const auto& w : loaded.warnings) std::cerr << "warning: " << w << "\n";
     driver::RunOptions opt;
     opt.out_dir = out_dir;
@@ -35,7 +35,7 @@ Action register_run(CLI::App& app) {
     if (device == "cpu") opt.device = config::Device::Cpu;
     if (device == "gpu") opt.device = config::Device::Gpu;
     if (device == "gpu-emulated") opt.device = config::Device::GpuEmulated;
-    opt.progress_tty = io::Progress::stderr_is_terminal();
+    opt.progress_tty = output::Progress::stderr_is_terminal();
     try {
       driver::run_case(loaded, opt);
     } catch (const driver::Interrupted& e) {

@@ -25,8 +25,8 @@
 #include "analysis/video_frames.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
-#include "io/progress.hpp"
-#include "io/series_csv.hpp"
+#include "output/progress.hpp"
+#include "output/series_csv.hpp"
 
 namespace biodem::cli {
 
@@ -203,10 +203,10 @@ int run_video(const VideoOptions& o) {
       break;
     }
 
-  io::SeriesWriter writer(out_dir / "series.csv", false);
+  output::SeriesWriter writer(out_dir / "series.csv", false);
   NameList unreadable, wrong_size, empty;
   std::size_t total = 0, measured = 0;
-  io::Progress progress(std::cerr, io::Progress::stderr_is_terminal(), 5.0);
+  output::Progress progress(std::cerr, output::Progress::stderr_is_terminal(), 5.0);
   const std::size_t batch = 16 * static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
   std::vector<analysis::VideoFrame> frames;
   std::vector<analysis::FrameMeasure> results;
@@ -259,7 +259,7 @@ int run_video(const VideoOptions& o) {
       }
       if (!m.has_powder) empty.add(f.name);
       else ++measured;
-      io::SeriesRow row;
+      output::SeriesRow row;
       row.time_s = static_cast<double>(f.index) / o.fps;
       row.revolution = o.rpm * row.time_s / 60.0;
       row.alpha_deg = m.alpha_deg;

@@ -1,160 +1,177 @@
 #include "calib/campaign.hpp"
 
-#include <algorithm>
-#include <memory>
-#include <stdexcept>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
 
-#include <pagmo/algorithms/nsga2.hpp>
-#include <pagmo/batch_evaluators/default_bfe.hpp>
-#include <pagmo/bfe.hpp>
-#include <pagmo/population.hpp>
-#include <pagmo/problem.hpp>
+#include "calib/campaign_plots.hpp"
+#include "calib/evaluations_csv.hpp"
+#include "calib/nsga2.hpp"
+#include "calib/objectives.hpp"
+#include "calib/scheduler.hpp"
+#include "core/error.hpp"
 
 namespace biodem::calib {
 namespace {
 
-// Shared state between the problem, the batch evaluator (pagmo copies both) and run_nsga2.
-struct State {
-  const CampaignSettings* settings = nullptr;
-  const BatchEvaluator* evaluate = nullptr;
-  const BatchListener* listener = nullptr;
-  std::map<std::vector<double>, Evaluation>* cache = nullptr;
-  std::vector<Evaluation> log;
-  std::uint64_t batches = 0;
+namespace fs = std::filesystem;
 
-  // One batch: cached vectors are answered at once, the others are evaluated together.
-  std::vector<Evaluation> run_batch(const std::vector<std::vector<double>>& xs) {
-    std::vector<Evaluation> batch(xs.size());
-    std::vector<Evaluation> todo;
-    std::vector<std::size_t> where;
-    for (std::size_t k = 0; k < xs.size(); ++k) {
-      auto it = cache->find(xs[k]);
-      if (it != cache->end()) {
-        batch[k] = it->second;
-      } else {
-        Evaluation e;
-        e.x = xs[k];
-        todo.push_back(e);
-        where.push_back(k);
-      }
-      batch[k].generation = batches;
-      batch[k].index = k;
-      batch[k].x = xs[k];
+class Campaign {
+ public:
+  Campaign(const CalibConfig& c, const CampaignOptions& o, const MpiJob* mpi) : c_(c), o_(o), mpi_(mpi) {
+    if (!o_.runner) {
+      const std::string exe = o_.biodem_exe.empty() ? current_executable() : o_.biodem_exe;
+      o_.runner = [exe](const TestJob& j) { return run_test_process(exe, j.dir, j.case_text); };
     }
-    if (!todo.empty()) {
-      for (std::size_t q = 0; q < todo.size(); ++q) {
-        todo[q].generation = batches;
-        todo[q].index = where[q];
-      }
-      (*evaluate)(todo);
-      for (std::size_t q = 0; q < todo.size(); ++q) {
-        batch[where[q]] = todo[q];
-        (*cache)[todo[q].x] = todo[q];
-      }
+  }
+
+  CampaignSummary run() {
+    const std::string& out = o_.out_dir;
+    const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
+    const auto names = response_names(c_);
+    std::map<std::vector<double>, Evaluation> cache;
+    if (o_.resume) {
+      if (!fs::exists(cache_csv)) throw Error("--resume: " + cache_csv + " does not exist (nothing to resume)");
+      for (auto& e : read_evaluations(cache_csv, c_.parameters.size(), names.size())) cache[e.x] = e;
+    } else if (fs::exists(eval_csv) || fs::exists(cache_csv)) {
+      throw Error("--out " + out + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
     }
-    for (auto& e : batch) log.push_back(e);
-    if (*listener) (*listener)(batch);
-    ++batches;
-    return batch;
-  }
-};
-
-State* g_state = nullptr;  // pagmo problems and bfes must be copyable: they reach the state here
-
-struct Problem {
-  std::vector<double> lower, upper;
-  pagmo::vector_double fitness(const pagmo::vector_double& x) const {
-    const auto b = g_state->run_batch({x});
-    return {b[0].o1, b[0].o2};
-  }
-  std::pair<pagmo::vector_double, pagmo::vector_double> get_bounds() const { return {lower, upper}; }
-  pagmo::vector_double::size_type get_nobj() const { return 2; }
-};
-
-struct BatchFitness {
-  pagmo::vector_double operator()(const pagmo::problem& p, const pagmo::vector_double& dvs) const {
-    const std::size_t n = p.get_nx(), m = dvs.size() / n;
-    std::vector<std::vector<double>> xs(m);
-    for (std::size_t k = 0; k < m; ++k) xs[k].assign(dvs.begin() + k * n, dvs.begin() + (k + 1) * n);
-    const auto b = g_state->run_batch(xs);
-    pagmo::vector_double f(2 * m);
-    for (std::size_t k = 0; k < m; ++k) {
-      f[2 * k] = b[k].o1;
-      f[2 * k + 1] = b[k].o2;
+    fs::create_directories(out + "/runs");
+    log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
+    log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; population " << c_.population
+         << ", generations " << c_.generations << ", seed " << c_.seed << ", jobs " << o_.jobs << "; "
+         << cache.size() << " evaluations cached\n";
+    log_.flush();
+    {
+      std::ofstream f(cache_csv, std::ios::app);
+      if (!o_.resume) f << evaluations_header(c_) << "\n";
     }
-    return f;
+    cache_out_.open(cache_csv, std::ios::app);
+    evals_.open(eval_csv, std::ios::trunc);
+    evals_ << evaluations_header(c_) << "\n";
+    t0_ = std::chrono::steady_clock::now();
+
+    CampaignSettings s;
+    for (const auto& p : c_.parameters) {
+      s.lower.push_back(p.lower);
+      s.upper.push_back(p.upper);
+    }
+    s.population = c_.population;
+    s.generations = c_.generations;
+    s.seed = c_.seed;
+    const std::uint64_t batches = c_.generations + 1;
+    std::uint64_t done = 0;
+    const auto res = run_nsga2(
+        s, [&](std::vector<Evaluation>& b) { evaluate(b); },
+        [&](const std::vector<Evaluation>& b) {
+          for (const auto& e : b) evals_ << evaluation_row(e) << "\n";
+          evals_.flush();
+          ++done;
+          const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+          double best1 = INFINITY, best2 = INFINITY;
+          for (const auto& e : b) {
+            best1 = std::min(best1, e.o1);
+            best2 = std::min(best2, e.o2);
+          }
+          log_ << "generation " << b.front().generation << " done (" << done << " of " << batches
+               << " batches): best o1 " << best1 << ", best o2 " << best2 << "; elapsed " << el << " s, ETA "
+               << el / static_cast<double>(done) * static_cast<double>(batches - done) << " s\n";
+          log_.flush();
+          std::cerr << "calibrate: batch " << done << " of " << batches << " done\n";
+        },
+        cache);
+    std::ofstream p(out + "/pareto.csv", std::ios::trunc);
+    p << evaluations_header(c_) << "\n";
+    for (const auto& e : res.pareto) p << evaluation_row(e) << "\n";
+    if (!p) throw Error(out + "/pareto.csv: cannot write");
+    write_campaign_plots(c_, res, out);
+    log_ << "finished: " << res.evaluations.size() << " evaluations, " << res.pareto.size()
+         << " in the Pareto set (pareto.csv)\n";
+    return {res.evaluations.size(), res.pareto.size()};
   }
+
+ private:
+  // Every (evaluation, test) of the batch is one job; the jobs run on threads or MPI ranks, then
+  // each evaluation is scored from its tests' responses (in test order).
+  void evaluate(std::vector<Evaluation>& batch) {
+    const auto names = response_names(c_);
+    std::vector<TestJob> jobs;
+    for (std::size_t e = 0; e < batch.size(); ++e)
+      for (std::size_t t = 0; t < c_.tests.size(); ++t) {
+        TestJob j;
+        j.evaluation = e;
+        j.test = t;
+        j.dir = o_.out_dir + "/runs/g" + std::to_string(batch[e].generation) + "/e" + std::to_string(batch[e].index) +
+                "/" + c_.tests[t].name;
+        j.case_text = apply_parameters(c_, c_.tests[t], batch[e].x);
+        j.x = batch[e].x;
+        jobs.push_back(std::move(j));
+      }
+    const std::vector<TestRun> runs = mpi_ && mpi_->size() > 1 ? mpi_->run(jobs) : run_on_threads(jobs, o_.jobs, o_.runner);
+    std::vector<std::map<std::string, double>> responses(batch.size());
+    std::vector<double> wall(batch.size(), 0.0);
+    std::vector<std::string> errors(batch.size());
+    for (std::size_t q = 0; q < jobs.size(); ++q) {
+      const TestJob& j = jobs[q];
+      const TestRun& r = runs[q];
+      for (const auto& [k, v] : r.responses) responses[j.evaluation][k] = v;
+      wall[j.evaluation] += r.wall_s;
+      if (r.rc != 0) errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (see " + j.dir + "/stdout.txt)";
+    }
+    for (std::size_t e = 0; e < batch.size(); ++e) {
+      auto& ev = batch[e];
+      ev.responses.clear();
+      for (const auto& n : names) ev.responses.push_back(responses[e].count(n) ? responses[e][n] : NAN);
+      ev.o1 = objective(c_, c_.o1, responses[e]);
+      ev.o2 = objective(c_, c_.o2, responses[e]);
+      if (!errors[e].empty() || !std::isfinite(ev.o1) || !std::isfinite(ev.o2)) {
+        log_ << "evaluation g" << ev.generation << " e" << ev.index << ":" << errors[e]
+             << " - scored as o1 = o2 = 1e9\n";
+        ev.o1 = ev.o2 = 1e9;
+      }
+      ev.wall_s = wall[e];
+      cache_out_ << evaluation_row(ev) << "\n";
+    }
+    cache_out_.flush();
+  }
+
+  const CalibConfig& c_;
+  CampaignOptions o_;
+  const MpiJob* mpi_;
+  std::ofstream log_, evals_, cache_out_;
+  std::chrono::steady_clock::time_point t0_;
 };
 
 }  // namespace
 
-std::vector<Evaluation> pareto_front(const std::vector<Evaluation>& all) {
-  std::map<std::vector<double>, Evaluation> distinct;
-  for (const auto& e : all) distinct.emplace(e.x, e);
-  std::vector<Evaluation> out;
-  for (const auto& [x, e] : distinct) {
-    bool dominated = false;
-    for (const auto& [y, f] : distinct)
-      if (f.o1 <= e.o1 && f.o2 <= e.o2 && (f.o1 < e.o1 || f.o2 < e.o2)) {
-        dominated = true;
-        break;
-      }
-    if (!dominated) out.push_back(e);
-  }
-  std::sort(out.begin(), out.end(), [](const Evaluation& a, const Evaluation& b) {
-    return a.o1 != b.o1 ? a.o1 < b.o1 : (a.o2 != b.o2 ? a.o2 < b.o2 : a.x < b.x);
-  });
-  return out;
+CampaignSummary run_campaign(const CalibConfig& c, const CampaignOptions& options, const MpiJob* mpi) {
+  return Campaign(c, options, mpi).run();
 }
 
-double hypervolume_2d(std::vector<std::pair<double, double>> p, double r1, double r2) {
-  std::sort(p.begin(), p.end());
-  // Staircase of the non-dominated points (sorted by o1, strictly decreasing o2).
-  double hv = 0.0;
-  double prev_o2 = r2;
-  std::vector<std::pair<double, double>> stair;
-  for (const auto& [a, b] : p)
-    if (a < r1 && b < prev_o2) {
-      stair.emplace_back(a, b);
-      prev_o2 = b;
+CampaignSummary calibrate(const std::string& calib_path, const CampaignOptions& options) {
+  if (launched_by_mpirun()) {
+    // Rank 0 runs the campaign, the others run test cases until it is over (also after an error).
+    MpiJob mpi;
+    if (mpi.rank() != 0) {
+      mpi.serve(options.biodem_exe.empty() ? current_executable() : options.biodem_exe);
+      CampaignSummary worker;
+      worker.mpi_worker = true;
+      return worker;
     }
-  for (std::size_t k = 0; k < stair.size(); ++k) {
-    const double next_o1 = k + 1 < stair.size() ? stair[k + 1].first : r1;
-    hv += (next_o1 - stair[k].first) * (r2 - stair[k].second);
+    CampaignSummary s;
+    try {
+      s = run_campaign(load_calib(calib_path), options, &mpi);
+    } catch (...) {
+      mpi.stop_workers();
+      throw;
+    }
+    mpi.stop_workers();
+    return s;
   }
-  return hv;
-}
-
-CampaignResult run_nsga2(const CampaignSettings& s, const BatchEvaluator& evaluate, const BatchListener& listener,
-                         std::map<std::vector<double>, Evaluation>& cache) {
-  if (s.population < 5 || s.population % 4 != 0)
-    throw std::invalid_argument("NSGA-II needs a population of more than 4 and a multiple of 4");
-  State st;
-  st.settings = &s;
-  st.evaluate = &evaluate;
-  st.listener = &listener;
-  st.cache = &cache;
-  g_state = &st;
-  struct Reset {
-    ~Reset() { g_state = nullptr; }
-  } reset;
-  Problem prob{s.lower, s.upper};
-  pagmo::problem p{prob};
-  pagmo::bfe b{BatchFitness{}};
-  pagmo::population pop{p, b, static_cast<pagmo::population::size_type>(s.population),
-                        static_cast<unsigned>(s.seed)};
-  const double m = s.mutation_probability < 0.0 ? 1.0 / static_cast<double>(s.lower.size()) : s.mutation_probability;
-  pagmo::nsga2 algo(static_cast<unsigned>(s.generations), s.crossover_probability, s.crossover_distribution, m,
-                    s.mutation_distribution, static_cast<unsigned>(s.seed));
-  algo.set_bfe(b);
-  pop = algo.evolve(pop);
-  CampaignResult r;
-  r.evaluations = st.log;
-  // The final non-dominated set of the final population.
-  std::vector<Evaluation> last;
-  for (const auto& x : pop.get_x()) last.push_back(cache.at(x));
-  r.pareto = pareto_front(last);
-  return r;
+  return run_campaign(load_calib(calib_path), options);
 }
 
 }  // namespace biodem::calib

@@ -1,55 +1,46 @@
-// NSGA-II campaign glue (SPEC 7, issue 9): pagmo's NSGA-II drives the search, every population
-// is handed to a batch evaluator at once (so that the caller can run it in parallel), and every
-// evaluation is cached by its exact decision vector. The cache is what makes a campaign
-// resumable: a restarted campaign with the same seed asks for the same vectors in the same
-// order, and the ones already evaluated are answered from the cache. The result depends only on
-// the problem, the bounds, the seed and the evaluator, never on how the batch is evaluated.
+// A bulk-test calibration campaign (SPEC 7, 11; issue 9; docs/calibration.md): NSGA-II
+// (calib/nsga2.hpp) over the parameters of a CALIB file; each evaluation runs the file's
+// bulk-test cases with the parameters applied (calib/test_runs.hpp), on threads or MPI ranks
+// (calib/scheduler.hpp), and scores the two objectives (calib/objectives.hpp).
+//
+// Files in the output folder: evaluations.csv (rows in (generation, index) order after each
+// batch, so they do not depend on where the runs ran), cache.csv (every finished evaluation,
+// appended at once: --resume re-uses it; a restarted campaign with the same seed asks for the
+// same vectors in the same order), pareto.csv, plots and campaign.log.
 #pragma once
-#include <cstdint>
-#include <functional>
-#include <map>
-#include <vector>
+#include <cstddef>
+#include <string>
+
+#include "calib/calib_file.hpp"
+#include "calib/test_runs.hpp"
 
 namespace biodem::calib {
 
-struct Evaluation {
-  std::uint64_t generation = 0, index = 0;  // batch (0: initial population) and position in it
-  std::vector<double> x;                    // decision vector (parameters)
-  std::vector<double> responses;            // what the evaluator measured (any length)
-  double o1 = 0.0, o2 = 0.0;                // objectives, both minimised
-  double wall_s = 0.0;
+class MpiJob;
+
+struct CampaignOptions {
+  std::string out_dir;
+  int jobs = 1;         // test runs at once on this machine (child processes)
+  bool resume = false;  // re-use out_dir/cache.csv of an interrupted campaign
+  /// How a test runs; empty: `biodem run` as a child process of biodem_exe.
+  TestRunner runner;
+  /// The `biodem` that runs the tests; empty: this process's executable.
+  std::string biodem_exe;
 };
 
-struct CampaignSettings {
-  std::vector<double> lower, upper;  // bounds of each parameter
-  std::uint64_t population = 8;      // NSGA-II: > 4 and a multiple of 4
-  std::uint64_t generations = 2;
-  std::uint64_t seed = 1;
-  double crossover_probability = 0.95, crossover_distribution = 10.0;
-  double mutation_probability = -1.0;  // < 0: 1 / number of parameters
-  double mutation_distribution = 50.0;
+struct CampaignSummary {
+  std::size_t evaluations = 0, pareto = 0;
+  bool mpi_worker = false;  // an MPI rank > 0: it ran test cases for rank 0's campaign
 };
 
-/// Evaluates a batch of decision vectors (fills responses, o1, o2, wall_s of each; generation,
-/// index and x are set by the caller).
-using BatchEvaluator = std::function<void(std::vector<Evaluation>&)>;
-/// Called after each batch with all evaluations of that batch (for logs, files, progress).
-using BatchListener = std::function<void(const std::vector<Evaluation>&)>;
+/// Runs the campaign of `c` into options.out_dir. With `mpi` (rank 0 of an MPI job) the test runs
+/// go to the other ranks. Throws biodem::Error on a folder that holds an earlier campaign (without
+/// resume) or nothing to resume.
+CampaignSummary run_campaign(const CalibConfig& c, const CampaignOptions& options, const MpiJob* mpi = nullptr);
 
-struct CampaignResult {
-  std::vector<Evaluation> evaluations;  // in order (generation, index)
-  std::vector<Evaluation> pareto;       // final non-dominated set, distinct vectors, sorted by o1
-};
-
-/// Runs NSGA-II. `cache` (exact decision vector -> earlier evaluation) answers repeated vectors
-/// without calling the evaluator; new evaluations are added to it.
-CampaignResult run_nsga2(const CampaignSettings& s, const BatchEvaluator& evaluate, const BatchListener& listener,
-                         std::map<std::vector<double>, Evaluation>& cache);
-
-/// Non-dominated subset (both objectives minimised), distinct decision vectors, sorted by o1.
-std::vector<Evaluation> pareto_front(const std::vector<Evaluation>& all);
-
-/// Hypervolume (2 objectives, minimised) of a set of points against a reference point.
-double hypervolume_2d(std::vector<std::pair<double, double>> points, double ref_o1, double ref_o2);
+/// `biodem calibrate CALIB --out DIR [--jobs N] [--resume]`: loads the file and runs its campaign.
+/// Under mpirun (builds with MPI) rank 0 runs the campaign and the other ranks run test cases
+/// (their summary says mpi_worker).
+CampaignSummary calibrate(const std::string& calib_path, const CampaignOptions& options);
 
 }  // namespace biodem::calib

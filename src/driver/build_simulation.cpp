@@ -3,7 +3,7 @@
 #include "contact/time_step.hpp"
 #include "contact/viscous_damping.hpp"
 #include "core/error.hpp"
-#include "io/case_report.hpp"
+#include "case_file/derived_quantities.hpp"
 #include "walls/wall_from_config.hpp"
 
 namespace biodem::driver {
@@ -78,7 +78,7 @@ BuiltCase build_simulation(const config::CaseConfig& c) {
     s.max_m = v3(k.max_m);
     sim.add_sink(s);
   }
-  sim.set_skin(io::resolved_skin_m(c));
+  sim.set_skin(case_file::resolved_skin_m(c));
   sim.set_wall_rolling_lab(c.contact.wall_rolling_reference == config::WallRollingReference::Lab);
   {
     // Where bodies must stay: the drum, or the [run] bounds box of an explicit scene, or else its

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "io/case_parser.hpp"
+#include "case_file/case_parser.hpp"
 
 namespace biodem::driver {
 
@@ -33,6 +33,6 @@ struct Interrupted : std::runtime_error {
   int signal;
 };
 
-RunSummary run_case(const io::LoadedCase& loaded, const RunOptions& options);
+RunSummary run_case(const case_file::LoadedCase& loaded, const RunOptions& options);
 
 }  // namespace biodem::driver

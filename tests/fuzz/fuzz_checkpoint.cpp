@@ -11,15 +11,15 @@
 
 #include "core/error.hpp"
 #include "fuzz_scene.hpp"
-#include "io/checkpoint.hpp"
+#include "checkpoint/checkpoint.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   std::vector<char> bytes;
   if (size > 0 && (data[0] & 1)) {
     static const char magic[8] = {'B', 'I', 'O', 'D', 'E', 'M', 'C', 'K'};
-    const std::uint32_t version = biodem::io::kCheckpointVersion;
+    const std::uint32_t version = biodem::checkpoint::kCheckpointVersion;
     const std::uint64_t n = size - 1;
-    const std::uint64_t sum = biodem::io::fnv1a(data + 1, n);
+    const std::uint64_t sum = biodem::checkpoint::fnv1a(data + 1, n);
     bytes.insert(bytes.end(), magic, magic + 8);
     bytes.insert(bytes.end(), reinterpret_cast<const char*>(&version), reinterpret_cast<const char*>(&version) + 4);
     bytes.insert(bytes.end(), reinterpret_cast<const char*>(&n), reinterpret_cast<const char*>(&n) + 8);
@@ -30,7 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   biodem::sim::Simulation sim = biodem::fuzz::make_scene();
   try {
-    (void)biodem::io::load_checkpoint_bytes(bytes, "fuzz.ckpt", sim);
+    (void)biodem::checkpoint::load_checkpoint_bytes(bytes, "fuzz.ckpt", sim);
     for (int k = 0; k < 3; ++k) sim.step();  // a resumed run goes on stepping
   } catch (const biodem::Error& e) {
     const char* m = e.what();

@@ -5,7 +5,7 @@
 #include <string>
 
 #include "contact/pair_table.hpp"
-#include "io/checkpoint.hpp"
+#include "checkpoint/checkpoint.hpp"
 #include "shapes/clump_template.hpp"
 #include "sim/simulation.hpp"
 
@@ -59,7 +59,7 @@ inline sim::Simulation make_scene() {
 inline void make_seed_checkpoint(const std::string& path) {
   sim::Simulation s = make_scene();
   s.run_steps(50);
-  io::RunProgress rp;
+  checkpoint::RunProgress rp;
   rp.pvd_spheres = {{0.0, "spheres_0.vtu"}};
   // Version 5: taken between two insertion waves, so that the insertion state (with the
   // generator's text) is in the payload too.
@@ -70,7 +70,7 @@ inline void make_seed_checkpoint(const std::string& path) {
   rp.insertion.waves = 1;
   rp.insertion.fall_step = 50;
   rp.insertion.rng.seed(1);
-  io::save_checkpoint(path, s, rp);
+  checkpoint::save_checkpoint(path, s, rp);
 }
 
 }  // namespace biodem::fuzz

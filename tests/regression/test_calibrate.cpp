@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "io/calib_file.hpp"
+#include "calib/calib_file.hpp"
 #include "test_util.hpp"
 
 using namespace biodem::testing;
@@ -126,7 +126,7 @@ TEST(Calibrate, ShippedCampaignFilesAreValid) {
   const std::string dir = source_dir() + "/cases/calibration/";
   for (const char* f : {"quick/campaign.toml", "quick/twin_campaign.toml", "twin_campaign_raw.toml"}) {
     try {
-      const biodem::io::CalibConfig c = biodem::io::load_calib(dir + f);
+      const biodem::calib::CalibConfig c = biodem::calib::load_calib(dir + f);
       EXPECT_EQ(c.tests.size(), 3u) << f;
       EXPECT_EQ(c.targets.size(), 3u) << f;
       EXPECT_GE(c.parameters.size(), 3u) << f;

@@ -7,7 +7,7 @@
 
 #include "core/error.hpp"
 #include "driver/build_simulation.hpp"
-#include "io/case_parser.hpp"
+#include "case_file/case_parser.hpp"
 #include "test_util.hpp"
 
 using namespace biodem;
@@ -28,7 +28,7 @@ std::string variant(const std::string& from, const std::string& to) {
 
 std::string parse_error(const std::string& text) {
   try {
-    io::parse_case(text, "case.toml");
+    case_file::parse_case(text, "case.toml");
   } catch (const Error& e) {
     return e.what();
   }

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "driver/build_simulation.hpp"
-#include "io/case_parser.hpp"
-#include "io/checkpoint.hpp"
+#include "case_file/case_parser.hpp"
+#include "checkpoint/checkpoint.hpp"
 #include "test_util.hpp"
 
 using namespace biodem;
@@ -74,7 +74,7 @@ TEST(Sink, RemovedBodyIsGoneFromEveryOutput) {
 // In process: run to 0.06 s (after the removal), checkpoint, load into a fresh simulation of the
 // same case, continue to 0.1 s, and compare with an uninterrupted run bit for bit.
 TEST(Sink, CheckpointAfterRemovalResumesBitForBit) {
-  const auto loaded = io::load_case(kCase);
+  const auto loaded = case_file::load_case(kCase);
   auto a = driver::build_simulation(loaded.config);
   auto b = driver::build_simulation(loaded.config);
   const std::uint64_t n_half = 4000, n_all = 6667;  // 0.06 s and 0.1 s at 1.5e-5 s
@@ -82,9 +82,9 @@ TEST(Sink, CheckpointAfterRemovalResumesBitForBit) {
   b.sim->run_steps(n_half);
   ASSERT_EQ(b.sim->removed_bodies(), 1u);
   const std::string path = fresh_dir("sink_ckpt") + ".bin";
-  io::save_checkpoint(path, *b.sim, {});
+  checkpoint::save_checkpoint(path, *b.sim, {});
   auto c = driver::build_simulation(loaded.config);
-  io::load_checkpoint(path, *c.sim);
+  checkpoint::load_checkpoint(path, *c.sim);
   c.sim->run_steps(n_all - n_half);
   ASSERT_EQ(c.sim->bodies().size(), 2u);
   EXPECT_EQ(c.sim->removed_bodies(), 1u);

@@ -9,7 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "io/series_csv.hpp"
+#include "output/series_csv.hpp"
 #include "test_analysis_helpers.hpp"
 
 using namespace biodem;
@@ -24,10 +24,10 @@ bool contains(const std::string& s, const std::string& part) { return s.find(par
 void write_series(const fs::path& dir, double drop, std::size_t period, double r2,
                   std::size_t n = 2000, std::size_t first = 100) {
   fs::create_directories(dir);
-  io::SeriesWriter w(dir, false);
+  output::SeriesWriter w(dir, false);
   double a = 40.0;
   for (std::size_t i = 0; i < n; ++i) {
-    io::SeriesRow r;
+    output::SeriesRow r;
     r.time_s = 0.02 * static_cast<double>(i);
     r.revolution = 0.5 * r.time_s / 60.0;
     const bool dropping = i > first && (i - first) % period > 0 && (i - first) % period <= 2;
@@ -316,11 +316,11 @@ TEST(AnalysisCli, CompareUsesOneThresholdForAllSamples) {
   test::TempDir dir("cli_compare_rule");
   for (const char* name : {"clean", "noisy"}) {
     fs::create_directories(dir / name);
-    io::SeriesWriter w(dir / name, false);
+    output::SeriesWriter w(dir / name, false);
     test::Noise rng(3);
     double a = 40.0;
     for (std::size_t i = 0; i < 2000; ++i) {
-      io::SeriesRow r;
+      output::SeriesRow r;
       r.time_s = 0.02 * static_cast<double>(i);
       r.revolution = 0.5 * r.time_s / 60.0;
       const std::size_t k = i % 100;

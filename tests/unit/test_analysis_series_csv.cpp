@@ -8,7 +8,7 @@
 #include <string>
 
 #include "core/error.hpp"
-#include "io/series_csv.hpp"
+#include "output/series_csv.hpp"
 #include "test_analysis_helpers.hpp"
 
 using namespace biodem;
@@ -23,7 +23,7 @@ void write_file(const std::filesystem::path& p, const std::string& text) {
 // The message of the biodem::Error thrown by reading `p` ("" if none).
 std::string read_error(const std::filesystem::path& p) {
   try {
-    io::read_series_csv(p);
+    output::read_series_csv(p);
   } catch (const Error& e) {
     return e.what();
   }
@@ -37,9 +37,9 @@ bool contains(const std::string& s, const std::string& part) { return s.find(par
 TEST(AnalysisSeriesCsv, WriterAndReaderRoundTrip) {
   test::TempDir dir("series_roundtrip");
   {
-    io::SeriesWriter w(dir.path(), false);  // a folder: opens series.csv in it
+    output::SeriesWriter w(dir.path(), false);  // a folder: opens series.csv in it
     for (int i = 0; i < 120; ++i) {
-      io::SeriesRow r;
+      output::SeriesRow r;
       r.time_s = 0.02 * i;
       r.revolution = 0.5 * r.time_s / 60.0;
       r.alpha_deg = 40.0 + 0.01 * i;
@@ -52,11 +52,11 @@ TEST(AnalysisSeriesCsv, WriterAndReaderRoundTrip) {
   }
   const auto lines = test::read_lines(dir / "series.csv");
   ASSERT_EQ(lines.size(), 121u);
-  EXPECT_EQ(lines[0], io::kSeriesHeader);
+  EXPECT_EQ(lines[0], output::kSeriesHeader);
   EXPECT_EQ(test::split_csv(lines[2]).size(), 8u);
   EXPECT_EQ(test::split_csv(lines[2])[3], "");  // missing r^2 is an empty cell
 
-  const auto f = io::read_series_csv(dir / "series.csv");
+  const auto f = output::read_series_csv(dir / "series.csv");
   EXPECT_TRUE(f.warnings.empty());
   const auto& s = f.series;
   ASSERT_EQ(s.size(), 120u);
@@ -71,18 +71,18 @@ TEST(AnalysisSeriesCsv, WriterAndReaderRoundTrip) {
 
   // Appending keeps one header.
   {
-    io::SeriesWriter w(dir / "series.csv", true);
-    w.write(io::SeriesRow{2.4, 0.02, 41.0, {}, {}, {}, {}, {}});
+    output::SeriesWriter w(dir / "series.csv", true);
+    w.write(output::SeriesRow{2.4, 0.02, 41.0, {}, {}, {}, {}, {}});
   }
   EXPECT_EQ(test::read_lines(dir / "series.csv").size(), 122u);
-  EXPECT_EQ(io::read_series_csv(dir / "series.csv").series.size(), 121u);
+  EXPECT_EQ(output::read_series_csv(dir / "series.csv").series.size(), 121u);
 }
 
 // Only the three required columns, in another order, with CRLF line ends and blank lines.
 TEST(AnalysisSeriesCsv, MinimalColumnsInAnyOrder) {
   test::TempDir dir("series_minimal");
   write_file(dir / "s.csv", "alpha_deg,time_s,revolution,extra\r\n40,0,0,x\r\n\r\n40.1,0.02,0.0001,y\r\n40.2,0.04,0.0002,\r\n");
-  const auto f = io::read_series_csv(dir / "s.csv");
+  const auto f = output::read_series_csv(dir / "s.csv");
   ASSERT_EQ(f.series.size(), 3u);
   EXPECT_DOUBLE_EQ(f.series.alpha_deg[2], 40.2);
   EXPECT_DOUBLE_EQ(f.series.time_s[1], 0.02);
@@ -117,7 +117,7 @@ TEST(AnalysisSeriesCsv, NaNRowsAreSkippedAndRestartsReplaceRows) {
              "time_s,revolution,alpha_deg,surface_r2\n"
              "0,0,40,0.9\n0.02,0.0001,nan,0.9\n0.04,0.0002,,\n0.06,0.0003,40.3,\n"
              "0.08,0.0004,40.4,0.95\n0.06,0.0003,41.3,0.97\n0.08,0.0004,41.4,0.98\n0.1,0.0005,41.5,0.99\n");
-  const auto f = io::read_series_csv(dir / "s.csv");
+  const auto f = output::read_series_csv(dir / "s.csv");
   EXPECT_EQ(f.skipped_rows, 2u);
   ASSERT_EQ(f.warnings.size(), 2u);
   EXPECT_TRUE(contains(f.warnings[0], "skipped 2 row(s)")) << f.warnings[0];
@@ -132,6 +132,6 @@ TEST(AnalysisSeriesCsv, NaNRowsAreSkippedAndRestartsReplaceRows) {
 TEST(AnalysisSeriesCsv, WriterRefusesAForeignFileAndUnwritablePath) {
   test::TempDir dir("series_writer_bad");
   write_file(dir / "other.csv", "a,b\n1,2\n");
-  EXPECT_THROW(io::SeriesWriter(dir / "other.csv", true), Error);
-  EXPECT_THROW(io::SeriesWriter(dir / "missing_folder" / "series.csv", false), Error);
+  EXPECT_THROW(output::SeriesWriter(dir / "other.csv", true), Error);
+  EXPECT_THROW(output::SeriesWriter(dir / "missing_folder" / "series.csv", false), Error);
 }

@@ -9,9 +9,10 @@
 
 #include "contact/time_step.hpp"
 #include "core/error.hpp"
-#include "io/case_parser.hpp"
-#include "io/case_report.hpp"
-#include "io/output_dir.hpp"
+#include "case_file/case_parser.hpp"
+#include "case_file/derived_quantities.hpp"
+#include "output/case_report.hpp"
+#include "output/output_dir.hpp"
 
 using namespace biodem;
 
@@ -161,7 +162,7 @@ std::string edit(std::string text, const std::string& from, const std::string& t
 /// The error message of parsing `text`, or "" if it parses.
 std::string error_of(const std::string& text) {
   try {
-    io::parse_case(text, "case.toml");
+    case_file::parse_case(text, "case.toml");
   } catch (const Error& e) {
     return e.what();
   }
@@ -182,7 +183,7 @@ std::string error_of(const std::string& text) {
 // ------------------------------------------------------------------ valid cases
 
 TEST(CaseParser, SpecExampleParses) {
-  const auto lc = io::parse_case(kSpecExample, "case.toml");
+  const auto lc = case_file::parse_case(kSpecExample, "case.toml");
   const auto& c = lc.config;
   EXPECT_EQ(c.source_path, "case.toml");
   EXPECT_DOUBLE_EQ(c.run.dt_s, 1.5e-5);
@@ -215,7 +216,7 @@ TEST(CaseParser, SpecExampleParses) {
 }
 
 TEST(CaseParser, ExplicitSceneParsesWithDefaults) {
-  const auto lc = io::parse_case(kScene, "scene.toml");
+  const auto lc = case_file::parse_case(kScene, "scene.toml");
   const auto& c = lc.config;
   EXPECT_TRUE(lc.warnings.empty());
   EXPECT_EQ(c.run.gravity_m_s2, (config::Vec3d{0.0, -9.81, 0.0}));
@@ -236,12 +237,12 @@ TEST(CaseParser, ExplicitSceneParsesWithDefaults) {
 }
 
 TEST(CaseParser, RealKeyAcceptsInteger) {
-  const auto c = io::parse_case(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = 1"), "case.toml").config;
+  const auto c = case_file::parse_case(edit(kSpecExample, "diameter_m = 0.100", "diameter_m = 1"), "case.toml").config;
   EXPECT_DOUBLE_EQ(c.drum->diameter_m, 1.0);
 }
 
 TEST(CaseParser, OrientationIsNormalised) {
-  const auto c = io::parse_case(edit(kScene, "velocity_m_s = [0, -1, 0]", "orientation = [2, 0, 0, 2]"), "c").config;
+  const auto c = case_file::parse_case(edit(kScene, "velocity_m_s = [0, -1, 0]", "orientation = [2, 0, 0, 2]"), "c").config;
   EXPECT_NEAR(c.particles[1].orientation[0], std::sqrt(0.5), 1e-15);
   EXPECT_NEAR(c.particles[1].orientation[3], std::sqrt(0.5), 1e-15);
   EXPECT_ERROR_NAMES(edit(kScene, "velocity_m_s = [0, -1, 0]", "orientation = [0, 0, 0, 0]"), ".orientation");
@@ -252,12 +253,12 @@ TEST(CaseParser, NeedleAndClumpShapes) {
                        "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 0.38");
   t = edit(t, "[0.002, 0.001, 0]", "[0.01, 0.01, 0]");
   t = edit(t, "[0, 0.001, 0]", "[0, 0.002, 0]");
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   EXPECT_EQ(c.shapes[0].kind, config::ShapeKind::Needle);
   EXPECT_DOUBLE_EQ(c.shapes[0].overlap_factor, 0.2);
   const std::string clump = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
                                  "kind = \"clump\"\nspheres = [[0, 0, 0, 5e-4], [6e-4, 0, 0, 4e-4]]");
-  const auto c2 = io::parse_case(edit(clump, "[0.002, 0.001, 0]", "[0.004, 0.001, 0]"), "case.toml").config;
+  const auto c2 = case_file::parse_case(edit(clump, "[0.002, 0.001, 0]", "[0.004, 0.001, 0]"), "case.toml").config;
   ASSERT_EQ(c2.shapes[0].spheres.size(), 2u);
   EXPECT_DOUBLE_EQ(c2.shapes[0].spheres[1].radius_m, 4e-4);
   EXPECT_ERROR_NAMES(edit(clump, "[6e-4, 0, 0, 4e-4]", "[6e-4, 0, 0, -4e-4]"), ".spheres", "radius");
@@ -269,7 +270,7 @@ TEST(CaseParser, NeedleOverlapFactorAboveHalfWarns) {
                        "kind = \"needle\"\nd50_m = 1e-3\naspect_ratio = 0.7\noverlap_factor = 0.6");
   t = edit(t, "[0.002, 0.001, 0]", "[0.01, 0.01, 0]");
   t = edit(t, "[0, 0.001, 0]", "[0, 0.002, 0]");
-  const auto lc = io::parse_case(t, "case.toml");
+  const auto lc = case_file::parse_case(t, "case.toml");
   ASSERT_FALSE(lc.warnings.empty());
   EXPECT_NE(lc.warnings[0].find("overlap_factor"), std::string::npos);
   EXPECT_ERROR_NAMES(edit(t, "overlap_factor = 0.6", "overlap_factor = 1.0"), ".overlap_factor");
@@ -278,7 +279,7 @@ TEST(CaseParser, NeedleOverlapFactorAboveHalfWarns) {
 TEST(CaseParser, SettleCriterionPhase) {
   const std::string t = edit(kSpecExample, "steps = 10000",
                              "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 1.0\nmin_duration_s = 0.3");
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   ASSERT_TRUE(c.phases[0].until_mean_kinetic_energy_j);
   EXPECT_DOUBLE_EQ(*c.phases[0].max_duration_s, 1.0);
   EXPECT_DOUBLE_EQ(c.phases[0].min_duration_s, 0.3);
@@ -289,7 +290,7 @@ TEST(CaseParser, SettleCriterionPhase) {
   // settle_energy: "total" by default, "translational" on request; anything else, or the key
   // without a criterion, is an error naming it.
   EXPECT_FALSE(c.phases[0].translational_criterion);
-  const auto tr = io::parse_case(edit(t, "min_duration_s = 0.3", "min_duration_s = 0.3\nsettle_energy = \"translational\""),
+  const auto tr = case_file::parse_case(edit(t, "min_duration_s = 0.3", "min_duration_s = 0.3\nsettle_energy = \"translational\""),
                                  "case.toml").config;
   EXPECT_TRUE(tr.phases[0].translational_criterion);
   EXPECT_ERROR_NAMES(edit(t, "min_duration_s = 0.3", "min_duration_s = 0.3\nsettle_energy = \"rotational\""),
@@ -444,7 +445,7 @@ TEST(CaseParser, DuplicatePairIsRejected) {
 TEST(CaseParser, PeriodicDrumNeedsNoEndplatePair) {
   std::string t = edit(kSpecExample, "endplate_material = \"glass\"", "axial_boundary = \"periodic\"");
   t = edit(t, "materials = [\"bead\", \"glass\"]", "materials = [\"glass\", \"glass\"]");
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   EXPECT_EQ(c.drum->axial_boundary, config::AxialBoundary::Periodic);
   EXPECT_FALSE(c.drum->endplate_material);
 }
@@ -469,18 +470,18 @@ TEST(CaseParser, DtAboveFortyPercentOfRayleighTimeIsRefused) {
   EXPECT_NEAR(tr, 6.07e-5, 0.01e-5);
   const std::string t = edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 3.0e-5");
   EXPECT_ERROR_NAMES(t, "[run].dt_s = 3e-05", "Rayleigh", "allow_large_dt");
-  const auto lc = io::parse_case(edit(t, "seed = 1", "seed = 1\nallow_large_dt = true"), "case.toml");
+  const auto lc = case_file::parse_case(edit(t, "seed = 1", "seed = 1\nallow_large_dt = true"), "case.toml");
   ASSERT_EQ(lc.warnings.size(), 1u);
   EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos);
-  EXPECT_NEAR(io::smallest_rayleigh_time_s(lc.config), tr, 1e-12);
+  EXPECT_NEAR(case_file::smallest_rayleigh_time_s(lc.config), tr, 1e-12);
 }
 
 TEST(CaseParser, DtBetweenTwentyAndFortyPercentWarns) {
-  const auto lc = io::parse_case(kSpecExample, "case.toml");  // 24.7 %
+  const auto lc = case_file::parse_case(kSpecExample, "case.toml");  // 24.7 %
   ASSERT_EQ(lc.warnings.size(), 1u);
   EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos);
   EXPECT_NE(lc.warnings[0].find("24.7 %"), std::string::npos) << lc.warnings[0];
-  EXPECT_TRUE(io::parse_case(edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 1e-5"), "c").warnings.empty());
+  EXPECT_TRUE(case_file::parse_case(edit(kSpecExample, "dt_s = 1.5e-5", "dt_s = 1e-5"), "c").warnings.empty());
 }
 
 TEST(CaseParser, CountThatCannotBeInsertedIsRejected) {
@@ -492,9 +493,9 @@ TEST(CaseParser, CountThatCannotBeInsertedIsRejected) {
 
 TEST(CaseParser, FillFractionImpliesCount) {
   const std::string t = edit(kSpecExample, "count = 19791", "fill_fraction = 0.4");
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   const double v_drum = M_PI * 0.05 * 0.05 * 0.005, v_bead = M_PI / 6.0 * 1e-9;
-  EXPECT_EQ(io::implied_particle_count(c), static_cast<std::uint64_t>(std::llround(0.4 * 0.6 * v_drum / v_bead)));
+  EXPECT_EQ(case_file::implied_particle_count(c), static_cast<std::uint64_t>(std::llround(0.4 * 0.6 * v_drum / v_bead)));
   EXPECT_ERROR_NAMES(edit(t, "fill_fraction = 0.4", "fill_fraction = 0.99\nbulk_solid_fraction = 0.9"),
                      "[insertion].fill_fraction", "55 %");
 }
@@ -505,9 +506,9 @@ TEST(CaseParser, PolydisperseMeanVolumeIsNumberWeighted) {
                        "[[population]]\nshape = \"bead2mm\"\nmaterial = \"bead\"\nvolume_fraction = 0.5\n"
                        "[[shape]]\nname = \"bead2mm\"\nkind = \"sphere\"\ndiameter_m = 2e-3\n");
   t = edit(t, "count = 19791", "count = 1000");
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   const double v1 = M_PI / 6.0 * 1e-9, v2 = 8.0 * v1;
-  EXPECT_NEAR(io::mean_population_particle_volume_m3(c) / (1.0 / (0.5 / v1 + 0.5 / v2)), 1.0, 1e-12);
+  EXPECT_NEAR(case_file::mean_population_particle_volume_m3(c) / (1.0 / (0.5 / v1 + 0.5 / v2)), 1.0, 1e-12);
 }
 
 TEST(CaseParser, ExplicitParticleInsideWallIsRejected) {
@@ -548,7 +549,7 @@ TEST(CaseParser, SyntaxErrorNamesFileAndLine) {
 
 TEST(CaseParser, MissingFileIsNamed) {
   try {
-    io::load_case("/nonexistent/dir/case.toml");
+    case_file::load_case("/nonexistent/dir/case.toml");
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/case.toml"), std::string::npos);
@@ -560,7 +561,7 @@ TEST(CaseParser, LoadCaseReadsFile) {
   std::filesystem::create_directories(dir);
   const auto path = (dir / "glass.toml").string();
   std::ofstream(path) << kSpecExample;
-  const auto lc = io::load_case(path);
+  const auto lc = case_file::load_case(path);
   EXPECT_EQ(lc.config.source_path, path);
   EXPECT_NE(lc.warnings.at(0).rfind(path, 0), std::string::npos);
   std::filesystem::remove_all(dir);
@@ -569,8 +570,8 @@ TEST(CaseParser, LoadCaseReadsFile) {
 // ------------------------------------------------------------------ report
 
 TEST(CaseReport, DescribesDerivedQuantities) {
-  const auto c = io::parse_case(edit(kSpecExample, "count = 19791", "fill_fraction = 0.4"), "case.toml").config;
-  const std::string r = io::describe_case(c);
+  const auto c = case_file::parse_case(edit(kSpecExample, "count = 19791", "fill_fraction = 0.4"), "case.toml").config;
+  const std::string r = output::describe_case(c);
   for (const char* part : {"Rayleigh time", "d_eq", "mass", "inertia", "count = ", "particles across the width",
                            "revolutions", "drum rotating", "sqrt(2 g D)", "% of the drum volume"})
     EXPECT_NE(r.find(part), std::string::npos) << part << "\n" << r;
@@ -584,11 +585,11 @@ TEST(CaseReport, NeedleReportShowsSpheresAndLength) {
   t = edit(t, "diameter_m = 0.100", "diameter_m = 0.400");
   t = edit(t, "width_m = 0.005", "width_m = 0.020");
   t = edit(t, "dt_s = 1.5e-5", "dt_s = 1e-5");
-  const auto lc = io::parse_case(t, "case.toml");
-  const std::string r = io::describe_case(lc.config);
+  const auto lc = case_file::parse_case(t, "case.toml");
+  const std::string r = output::describe_case(lc.config);
   EXPECT_NE(r.find("n_spb = 3"), std::string::npos) << r;
   EXPECT_NE(r.find("clump length 0.007758"), std::string::npos) << r;  // 4 x 1940 um
-  EXPECT_NEAR(io::resolved_skin_m(lc.config), 746e-6, 1e-12);   // a quarter of d = 4 x 746 um
+  EXPECT_NEAR(case_file::resolved_skin_m(lc.config), 746e-6, 1e-12);   // a quarter of d = 4 x 746 um
 }
 
 // ------------------------------------------------------------------ output directory
@@ -596,12 +597,12 @@ TEST(CaseReport, NeedleReportShowsSpheresAndLength) {
 TEST(OutputDir, CreatesNestedDirectoryAndWritesAtomically) {
   const auto base = std::filesystem::temp_directory_path() / ("biodem_out_test_" + std::to_string(::getpid()));
   const auto dir = base / "a" / "b";
-  io::prepare_output_dir(dir.string());
+  output::prepare_output_dir(dir.string());
   EXPECT_TRUE(std::filesystem::is_directory(dir));
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator()), 0);
   const auto file = (dir / "x.txt").string();
-  io::write_file_atomic(file, "one");
-  io::write_file_atomic(file, "two");
+  output::write_file_atomic(file, "one");
+  output::write_file_atomic(file, "two");
   std::ifstream in(file);
   std::string s;
   in >> s;
@@ -615,7 +616,7 @@ TEST(OutputDir, PathUnderRegularFileIsRejected) {
   std::ofstream(base.string()) << "x";
   const std::string dir = (base / "sub").string();
   try {
-    io::prepare_output_dir(dir);
+    output::prepare_output_dir(dir);
     FAIL() << "expected an error";
   } catch (const Error& e) {
     const std::string msg = e.what();
@@ -623,12 +624,12 @@ TEST(OutputDir, PathUnderRegularFileIsRejected) {
     EXPECT_NE(msg.find("cannot create directory"), std::string::npos) << msg;
   }
   try {
-    io::prepare_output_dir(base.string());
+    output::prepare_output_dir(base.string());
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("not a directory"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(io::write_file_atomic((base / "f").string(), "x"), Error);
+  EXPECT_THROW(output::write_file_atomic((base / "f").string(), "x"), Error);
   std::filesystem::remove(base);
 }
 
@@ -636,7 +637,7 @@ TEST(CaseParser, WallKinds) {
   const std::string cyl = edit(kScene, "kind = \"plane\"\nmaterial = \"steel\"\npoint_m = [0, 0, 0]\nnormal = [0, 2, 0]",
                                "kind = \"cylinder\"\nmaterial = \"steel\"\npoint_m = [0, 0, -1]\naxis = [0, 0, 3]\n"
                                "radius_m = 0.05\nangular_velocity_rad_s = 0.1");
-  const auto c = io::parse_case(cyl, "case.toml").config;
+  const auto c = case_file::parse_case(cyl, "case.toml").config;
   EXPECT_EQ(c.walls[0].kind, config::WallKind::Cylinder);
   EXPECT_DOUBLE_EQ(c.walls[0].normal[2], 1.0);
   EXPECT_DOUBLE_EQ(c.walls[0].length_m, 0.0);
@@ -651,7 +652,7 @@ TEST(CaseParser, WallKinds) {
 TEST(CaseParser, DomainRules) {
   const std::string t = kScene + "\n[domain]\nmin_m = [-0.01, 0, -0.01]\nmax_m = [0.01, 0.02, 0.01]\n"
                                  "periodic = [true, false, true]\n";
-  const auto c = io::parse_case(t, "case.toml").config;
+  const auto c = case_file::parse_case(t, "case.toml").config;
   ASSERT_TRUE(c.domain);
   EXPECT_TRUE(c.domain->periodic[0]);
   EXPECT_FALSE(c.domain->periodic[1]);
@@ -665,19 +666,19 @@ TEST(CaseParser, OutputRules) {
   EXPECT_ERROR_NAMES(edit(kSpecExample, "sample_hz = 50.0", "sample_hz = 0"), "[output].sample_hz");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "snapshot_every_s = 1.0", "snapshot_every_s = -1.0"),
                      "[output].snapshot_every_s");
-  const auto c = io::parse_case(edit(kSpecExample, "trace = false", "trace = true\nframe_every_s = 0.02"), "c").config;
+  const auto c = case_file::parse_case(edit(kSpecExample, "trace = false", "trace = true\nframe_every_s = 0.02"), "c").config;
   EXPECT_TRUE(c.output.trace);
   EXPECT_EQ(c.output.frame_size_px, 512u);
   EXPECT_DOUBLE_EQ(*c.output.frame_every_s, 0.02);
 }
 
 TEST(CaseParser, DeviceAndWallRollingReference) {
-  const auto def = io::parse_case(kSpecExample, "case.toml").config;
+  const auto def = case_file::parse_case(kSpecExample, "case.toml").config;
   EXPECT_EQ(def.run.device, config::Device::Cpu);
   EXPECT_EQ(def.contact.wall_rolling_reference, config::WallRollingReference::Wall);
-  const auto gpu = io::parse_case(edit(kSpecExample, "[run]", "[run]\ndevice = \"gpu\""), "case.toml").config;
+  const auto gpu = case_file::parse_case(edit(kSpecExample, "[run]", "[run]\ndevice = \"gpu\""), "case.toml").config;
   EXPECT_EQ(gpu.run.device, config::Device::Gpu);
-  const auto lab = io::parse_case(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"lab\"\n\n[run]"),
+  const auto lab = case_file::parse_case(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"lab\"\n\n[run]"),
                                   "case.toml").config;
   EXPECT_EQ(lab.contact.wall_rolling_reference, config::WallRollingReference::Lab);
   EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[run]\ndevice = \"tpu\""), "[run].device", "\"gpu\"");

@@ -6,14 +6,14 @@
 #include <string>
 
 #include "core/error.hpp"
-#include "io/case_parser.hpp"
+#include "case_file/case_parser.hpp"
 
 using namespace biodem;
 
 namespace {
 std::string error_of(const std::string& text) {
   try {
-    io::parse_case(text, "case.toml");
+    case_file::parse_case(text, "case.toml");
   } catch (const Error& e) {
     return e.what();
   }

@@ -18,7 +18,7 @@
 
 #include "core/error.hpp"
 #include "fuzz/fuzz_scene.hpp"
-#include "io/checkpoint.hpp"
+#include "checkpoint/checkpoint.hpp"
 
 using namespace biodem;
 
@@ -31,11 +31,11 @@ std::vector<char> read_all(const std::string& path) {
 
 /// A checkpoint of the fuzz scene after 50 steps, modified by `edit` before saving.
 std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edit,
-                                const std::function<void(io::RunProgress&)>& edit_progress = {}) {
+                                const std::function<void(checkpoint::RunProgress&)>& edit_progress = {}) {
   sim::Simulation s = fuzz::make_scene();
   s.run_steps(50);
   edit(s);
-  io::RunProgress rp;
+  checkpoint::RunProgress rp;
   rp.pvd_spheres = {{0.0, "spheres_0.vtu"}};
   if (edit_progress) edit_progress(rp);
   // One file per process: ctest runs the tests of this file as parallel processes, and a shared
@@ -43,7 +43,7 @@ std::vector<char> checkpoint_of(const std::function<void(sim::Simulation&)>& edi
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("biodem_corrupt_test_" + std::to_string(static_cast<long>(::getpid())) + ".ckpt"))
                                .string();
-  io::save_checkpoint(path, s, rp);
+  checkpoint::save_checkpoint(path, s, rp);
   auto bytes = read_all(path);
   std::filesystem::remove(path);
   return bytes;
@@ -58,7 +58,7 @@ void rewrap(std::vector<char>& b, std::uint32_t version, std::size_t payload_siz
   std::memcpy(b.data() + 8, &version, 4);
   const std::uint64_t size = payload_size;
   std::memcpy(b.data() + 12, &size, 8);
-  const std::uint64_t sum = io::fnv1a(b.data() + kHead, payload_size);
+  const std::uint64_t sum = checkpoint::fnv1a(b.data() + kHead, payload_size);
   std::memcpy(b.data() + kHead + payload_size, &sum, 8);
 }
 
@@ -66,7 +66,7 @@ void rewrap(std::vector<char>& b, std::uint32_t version, std::size_t payload_siz
 std::string load_error(const std::vector<char>& bytes) {
   sim::Simulation s = fuzz::make_scene();
   try {
-    io::load_checkpoint_bytes(bytes, "run/checkpoint.bin", s);
+    checkpoint::load_checkpoint_bytes(bytes, "run/checkpoint.bin", s);
     s.step();
   } catch (const Error& e) {
     return e.what();
@@ -92,7 +92,7 @@ TEST(CheckpointCorrupt, HugeStringLengthIsTruncationNotACrash) {
   const std::size_t head = 8 + 4 + 8, at = head + 8 * 8 + 8 + 8;
   const std::uint64_t huge = ~0ull - 8;
   std::memcpy(b.data() + at, &huge, 8);
-  const std::uint64_t sum = io::fnv1a(b.data() + head, b.size() - head - 8);
+  const std::uint64_t sum = checkpoint::fnv1a(b.data() + head, b.size() - head - 8);
   std::memcpy(b.data() + b.size() - 8, &sum, 8);
   expect_one_line_error(load_error(b), "truncated checkpoint");
 }
@@ -131,7 +131,7 @@ TEST(CheckpointCorrupt, IndicesThatDoNotFitAreRejected) {
 // A version-4 file is the same payload without that tail: it is still read, with no insertion
 // under way; version 3 and older are refused in one line.
 TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
-  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [](io::RunProgress& rp) {
+  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [](checkpoint::RunProgress& rp) {
     rp.last_sample_step = 40;
     rp.last_snapshot_step = 30;
     rp.last_settled = true;
@@ -140,7 +140,7 @@ TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
   const std::size_t payload = b.size() - kHead - 8;
   {
     sim::Simulation s = fuzz::make_scene();
-    const auto rp = io::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
+    const auto rp = checkpoint::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
     EXPECT_EQ(rp.version, 5u);
     EXPECT_EQ(rp.last_sample_step, 40u);
     EXPECT_EQ(rp.last_snapshot_step, 30u);
@@ -151,9 +151,9 @@ TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
   rewrap(v4, 4, payload - tail);
   {
     sim::Simulation s = fuzz::make_scene();
-    const auto rp = io::load_checkpoint_bytes(v4, "run/checkpoint.bin", s);
+    const auto rp = checkpoint::load_checkpoint_bytes(v4, "run/checkpoint.bin", s);
     EXPECT_EQ(rp.version, 4u);
-    EXPECT_EQ(rp.last_sample_step, io::RunProgress::kNever);
+    EXPECT_EQ(rp.last_sample_step, checkpoint::RunProgress::kNever);
     EXPECT_FALSE(rp.last_settled);
     EXPECT_FALSE(rp.insertion.active);
     EXPECT_EQ(s.step_count(), 50u);
@@ -174,7 +174,7 @@ TEST(CheckpointVersions, InsertionStateRoundTripsAndADamagedGeneratorIsRejected)
   for (int k = 0; k < 1000; ++k) g();
   std::ostringstream text;  // the generator's state as the checkpoint writes it
   text << g;
-  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [&](io::RunProgress& rp) {
+  std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [&](checkpoint::RunProgress& rp) {
     rp.insertion.active = true;
     rp.insertion.placed = 672;
     rp.insertion.waves = 2;
@@ -184,7 +184,7 @@ TEST(CheckpointVersions, InsertionStateRoundTripsAndADamagedGeneratorIsRejected)
   });
   {
     sim::Simulation s = fuzz::make_scene();
-    auto rp = io::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
+    auto rp = checkpoint::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
     EXPECT_TRUE(rp.insertion.active);
     EXPECT_EQ(rp.insertion.placed, 672u);
     EXPECT_EQ(rp.insertion.waves, 2u);
@@ -196,6 +196,6 @@ TEST(CheckpointVersions, InsertionStateRoundTripsAndADamagedGeneratorIsRejected)
   const std::size_t payload = b.size() - kHead - 8, at = kHead + payload - text.str().size();
   ASSERT_EQ(std::string(b.data() + at, text.str().size()), text.str());
   b[at] = 'x';
-  rewrap(b, io::kCheckpointVersion, payload);
+  rewrap(b, checkpoint::kCheckpointVersion, payload);
   expect_one_line_error(load_error(b), "insertion random state");
 }

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "calib/campaign.hpp"
+#include "calib/nsga2.hpp"
 
 using namespace biodem::calib;
 

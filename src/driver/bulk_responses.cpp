@@ -1,0 +1,92 @@
+#include "driver/runner.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "scenario/bulk_measures.hpp"
+
+namespace biodem::driver {
+
+// Responses of a bulk test (SPEC 7, 11), measured on the final state: docs/calibration.md.
+void Runner::write_responses() {
+  const auto& b = *cfg_.bulk_test;
+  const auto& s = sim_.spheres();
+  const auto& bd = sim_.bodies();
+  struct Row {
+    std::string name;
+    double value;
+    std::string unit;
+  };
+  std::vector<Row> rows;
+  double d = 0.0;  // profile bin: the largest volume-equivalent diameter of the poured shapes
+  for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
+  if (b.kind == config::BulkTest::Kind::Heap) {
+    scenario::HeapOptions o;
+    o.bin_m = d;
+    o.sectors = b.sectors;
+    o.fit_from = b.fit_from_fraction;
+    o.fit_to = b.fit_to_fraction;
+    const auto h = scenario::measure_heap(s.position_m, s.radius_m, s.body, {0, 0, 0}, {0, 1, 0}, o);
+    rows.push_back({"angle_of_repose_deg", h.angle_deg, "deg"});
+    rows.push_back({"angle_of_repose_spread_deg", h.angle_spread_deg, "deg"});
+    rows.push_back({"angle_of_repose_min_deg", h.angle_min_deg, "deg"});
+    rows.push_back({"angle_of_repose_max_deg", h.angle_max_deg, "deg"});
+    rows.push_back({"heap_sectors_fitted", static_cast<double>(h.sectors_fitted), "-"});
+    rows.push_back({"heap_height_m", h.height_m, "m"});
+    rows.push_back({"heap_base_radius_m", h.base_radius_m, "m"});
+    rows.push_back({"heap_bodies", static_cast<double>(h.heap_bodies), "-"});
+    rows.push_back({"stray_bodies", static_cast<double>(h.stray_bodies), "-"});
+    rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
+  } else if (b.kind == config::BulkTest::Kind::BulkDensity) {
+    const double R = 0.5 * b.container_diameter_m, H = b.container_height_m;
+    double m = 0.0, v = 0.0, y_max = -1e300, v_core = 0.0;
+    const double rc = R - d;  // core: one particle size away from the wall, the bottom and the rim
+    for (std::size_t i = 0; i < bd.size(); ++i) {
+      const Vec3 x = bd.position_m[i];
+      y_max = std::max(y_max, x.y);
+      if (x.y > d && x.y < H - d && x.x * x.x + x.z * x.z < rc * rc) v_core += sim_.templates()[bd.shape[i]].volume_m3;
+      if (x.y > H || x.x * x.x + x.z * x.z > R * R || x.y < 0.0) continue;  // struck off, or outside
+      m += bd.mass_kg[i];
+      v += sim_.templates()[bd.shape[i]].volume_m3;
+    }
+    if (!(y_max > H))
+      throw Error("[insertion].count = " + std::to_string(bd.size() + sim_.removed_bodies()) +
+                  ": the container did not overflow (highest body centre at " + std::to_string(y_max) +
+                  " m, rim at " + std::to_string(H) + " m); pour more particles");
+    const double volume = std::numbers::pi * R * R * H;
+    rows.push_back({"bulk_density_kg_m3", m / volume, "kg/m3"});
+    rows.push_back({"solid_fraction", v / volume, "-"});
+    rows.push_back({"mass_in_container_kg", m, "kg"});
+    if (rc > 0.0 && H > 2.0 * d)
+      rows.push_back({"core_solid_fraction", v_core / (std::numbers::pi * rc * rc * (H - 2.0 * d)), "-"});
+  } else {
+    double m_in = 0.0, m_all = sim_.removed_mass_kg();
+    for (std::size_t i = 0; i < bd.size(); ++i) {
+      m_all += bd.mass_kg[i];
+      if (bd.position_m[i].x < b.length_m) m_in += bd.mass_kg[i];
+    }
+    rows.push_back({"retainment_ratio", m_all > 0.0 ? m_in / m_all : 0.0, "-"});
+    rows.push_back({"mass_retained_kg", m_in, "kg"});
+    rows.push_back({"mass_poured_kg", m_all, "kg"});
+  }
+  rows.push_back({"at_rest", last_settled_ ? 1.0 : 0.0, "-"});
+  const std::string path = opt_.out_dir + "/responses.csv";
+  std::ofstream f(path, std::ios::trunc);
+  f << "response,value,unit\n";
+  char buf[64];
+  for (const auto& r : rows) {
+    std::snprintf(buf, sizeof buf, "%.9g", r.value);
+    f << r.name << "," << buf << "," << r.unit << "\n";
+  }
+  if (!f) throw Error(path + ": cannot write");
+  log_ << "responses (" << path << "):";
+  for (const auto& r : rows) log_ << " " << r.name << " = " << r.value << " " << r.unit << ";";
+  log_ << (last_settled_ ? "" : " WARNING: the scene was not at rest when measured (max_rest_s reached)") << "\n";
+}
+
+}  // namespace biodem::driver

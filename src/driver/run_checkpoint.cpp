@@ -1,0 +1,97 @@
+// checkpoint.bin during a run (docs/architecture.md section 5): what the run adds to the
+// simulation state (where it is, the sizes of the appended outputs), and --resume.
+#include "driver/runner.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include "core/error.hpp"
+
+namespace biodem::driver {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Durably on disk (fsync): the appended outputs before a checkpoint records their sizes, and the
+/// folder after the checkpoint's rename (a crash must not leave a checkpoint that counts rows the
+/// disk never received, or lose the renamed checkpoint).
+void fsync_path(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) return;
+  ::fsync(fd);
+  ::close(fd);
+}
+
+/// Truncates an appended output back to what the checkpoint counted. A file shorter than that
+/// lost rows the checkpoint relies on (extending it would pad with NUL bytes): an error.
+void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
+  const auto size = fs::file_size(path);
+  if (size < bytes)
+    throw Error("--resume: " + path + " has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(bytes) +
+                " the checkpoint recorded (rows were lost); start the run again");
+  fs::resize_file(path, bytes);
+}
+
+}  // namespace
+
+void Runner::checkpoint() {
+  sync(true);
+  series_->flush();
+  if (trace_) trace_->flush();
+  fsync_path(opt_.out_dir + "/series.csv");
+  if (trace_) fsync_path(opt_.out_dir + "/trace.csv");
+  checkpoint::RunProgress rp;
+  rp.case_hash = case_hash_;
+  rp.phase_index = phase_index_;
+  rp.phase_step = phase_step_;
+  rp.settle_counter = settle_counter_;
+  rp.rotation_time_s = rotation_time_s_;
+  rp.snapshot_index = snapshot_index_;
+  rp.series_bytes = fs::file_size(opt_.out_dir + "/series.csv");
+  rp.trace_bytes = trace_ ? fs::file_size(opt_.out_dir + "/trace.csv") : 0;
+  rp.pvd_spheres = pvd_->entries();
+  rp.pvd_bodies = pvd_bodies_->entries();
+  rp.last_sample_step = last_sample_step_;
+  rp.last_snapshot_step = last_snapshot_step_;
+  rp.last_settled = last_settled_;
+  rp.insertion = insertion_;
+  // frame index is implied by the step count
+  checkpoint::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
+  fsync_path(opt_.out_dir);
+}
+
+void Runner::resume() {
+  const std::string path = opt_.out_dir + "/checkpoint.bin";
+  resumed_ = checkpoint::load_checkpoint(path, sim_);
+  if (dev_) {
+    dev_->upload();  // the checkpoint's forces and contact history: the run continues as it was
+    device_current_ = true;
+    synced_step_ = sim_.step_count();
+    synced_history_ = true;
+  }
+  if (resumed_.case_hash != case_hash_)
+    throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
+  rotation_time_s_ = resumed_.rotation_time_s;
+  snapshot_index_ = resumed_.snapshot_index;
+  frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
+  truncate_to_checkpoint(opt_.out_dir + "/series.csv", resumed_.series_bytes);
+  if (cfg_.output.trace) truncate_to_checkpoint(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
+  resumed_run_ = true;
+  if (resumed_.version >= 5) {
+    last_sample_step_ = resumed_.last_sample_step;
+    last_snapshot_step_ = resumed_.last_snapshot_step;
+    last_settled_ = resumed_.last_settled;
+    insertion_ = resumed_.insertion;
+  } else {
+    // Version 4 (never written during insertion): a checkpoint is taken after the step's sample
+    // and snapshot: do not repeat them.
+    last_sample_step_ = sim_.step_count();
+    last_snapshot_step_ = snapshot_every_ && sim_.step_count() % snapshot_every_ == 0 ? sim_.step_count()
+                                                                                        : last_snapshot_step_;
+  }
+}
+
+}  // namespace biodem::driver

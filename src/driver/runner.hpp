@@ -1,0 +1,120 @@
+// The run of one case (`biodem run`, SPEC 5 and 11), internal to src/driver: a Runner holds the
+// simulation, its engine (CPU, or the GPU engine with the host copy synchronised on demand), the
+// output writers and where the run is (for checkpoints). Its jobs live in one file each:
+//   run_driver.cpp     the run from start to end, engine access, signals, run.log header
+//   phases.cpp         the phase plan from the case, one phase (criteria, wall motion, timings)
+//   insertion.cpp      insertion in waves, also resumed from a checkpoint
+//   run_outputs.cpp    samples (series.csv, trace.csv), snapshots (VTK), back-lit frames
+//   bulk_responses.cpp responses.csv of a bulk test
+//   run_checkpoint.cpp checkpoint.bin: writing, resuming, truncating the appended outputs
+#pragma once
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#if BIODEM_HAVE_OPENCV
+#include "analysis/free_surface.hpp"
+#endif
+#include "case_file/case_parser.hpp"
+#include "checkpoint/checkpoint.hpp"
+#include "core/vec3.hpp"
+#include "driver/build_simulation.hpp"
+#include "driver/run_driver.hpp"
+#include "gpu/device_engine.hpp"
+#include "output/progress.hpp"
+#include "output/series_csv.hpp"
+#include "output/vtk_writer.hpp"
+
+namespace biodem::driver {
+
+struct PhasePlan {
+  std::string name;
+  std::uint64_t max_steps = 0;
+  bool rotate = false;
+  bool criterion = false;
+  double ke_threshold_j = 0.0;
+  std::uint64_t min_steps = 0;
+  std::uint64_t hold_steps = 1;
+  bool translational = false;            // criterion on translational kinetic energy only
+  std::optional<std::size_t> move_wall;  // bulk tests: wall translated during the phase
+  Vec3 move_velocity_m_s;
+  bool move_by_fill_height = false;  // [heap] lift: by the fill height + margin (at most max_steps)
+  double move_margin_m = 0.0;
+};
+
+/// CPU time of the whole process (all threads), user + system, in seconds.
+double process_cpu_s();
+/// round(seconds / dt).
+std::uint64_t steps_for(double seconds, double dt);
+/// The phases of a case in steps (a settle criterion, a wall motion ...).
+std::vector<PhasePlan> plan_phases(const config::CaseConfig& c);
+
+class Runner {
+ public:
+  Runner(const case_file::LoadedCase& loaded, const RunOptions& opt);
+
+  RunSummary run();
+
+ private:
+  void write_log_header();
+  /// Insertion in waves into the drum or a region, from the start or, after --resume, from the
+  /// checkpoint's insertion state; then the state after insertion is made current and sampled.
+  void insert();
+  void finish_insertion();
+  void write_responses();
+  void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
+  void frame();
+  void checkpoint();
+  void resume();
+  void after_step();
+  void sample();
+  void snapshot();
+  double revolution() const;
+  void report_progress(const std::string& label);
+  [[noreturn]] void stop_on_signal();
+  /// One time step on the selected engine.
+  void advance();
+  /// GPU engine: brings the host Simulation up to date (with the contact history when `history`).
+  void sync(bool history);
+  double kinetic_energy_j();
+  double translational_kinetic_energy_j();
+
+  const config::CaseConfig& cfg_;
+  std::vector<std::string> warnings_;
+  RunOptions opt_;
+  BuiltCase built_;
+  sim::Simulation& sim_;
+  output::Progress progress_;
+  std::unique_ptr<output::SeriesWriter> series_;
+  std::unique_ptr<std::ofstream> trace_;
+  std::unique_ptr<output::PvdCollection> pvd_, pvd_bodies_;
+  std::ofstream log_;
+  std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
+  std::size_t frame_index_ = 0;
+  std::uint64_t last_sample_step_ = ~std::uint64_t{0}, last_snapshot_step_ = ~std::uint64_t{0};
+#if BIODEM_HAVE_OPENCV
+  analysis::SurfaceParams surface_params_{};
+#endif
+  std::uint64_t case_hash_ = 0;
+  // Where the run is, for checkpoints.
+  std::size_t phase_index_ = 0;
+  std::uint64_t phase_step_ = 0, settle_counter_ = 0;
+  checkpoint::RunProgress resumed_;
+  bool resumed_run_ = false;
+  std::uint64_t total_steps_estimate_ = 1;
+  double rotation_time_s_ = 0.0;
+  std::size_t snapshot_index_ = 0;
+  std::string current_phase_ = "insert";
+  config::Device device_ = config::Device::Cpu;
+  std::unique_ptr<gpu::DeviceEngine> dev_;
+  std::uint64_t synced_step_ = ~std::uint64_t{0};
+  bool synced_history_ = false;
+  bool device_current_ = false;  // the device holds the run's state (host may lag behind)
+  bool last_settled_ = false;
+  checkpoint::InsertionProgress insertion_;  // while inserting: what a checkpoint must carry
+};
+
+}  // namespace biodem::driver

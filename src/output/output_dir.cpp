@@ -1,0 +1,71 @@
+#include "output/output_dir.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+
+#include "core/error.hpp"
+
+namespace biodem::output {
+namespace fs = std::filesystem;
+
+void prepare_output_dir(const std::string& dir, const std::string& label) {
+  const std::string who = label.empty() ? dir : label + " " + dir;
+  if (dir.empty()) throw Error(label + ": the output directory name is empty");
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  if (fs::exists(st)) {
+    if (!fs::is_directory(st)) throw Error(who + ": exists and is not a directory");
+  } else {
+    fs::create_directories(dir, ec);
+    if (ec) throw Error(who + ": cannot create directory: " + ec.message());
+  }
+  const std::string probe = (fs::path(dir) / (".biodem-write-probe-" + std::to_string(::getpid()))).string();
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(who + ": directory is not writable: " + std::strerror(errno));
+  ::close(fd);
+  if (::unlink(probe.c_str()) != 0) throw Error(who + ": cannot remove probe file " + probe + ": " + std::strerror(errno));
+}
+
+void write_file_atomic(const std::string& path, const std::string& content) {
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(tmp + ": cannot create file: " + std::strerror(errno));
+  const char* p = content.data();
+  std::size_t left = content.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int err = errno;
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      throw Error(tmp + ": cannot write: " + std::strerror(err));
+    }
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {  // EINVAL: file system without fsync
+    const int err = errno;
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw Error(tmp + ": cannot sync to disk: " + std::strerror(err));
+  }
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw Error(tmp + ": cannot close: " + std::strerror(err));
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw Error(path + ": cannot rename " + tmp + " over it: " + std::strerror(err));
+  }
+}
+
+}  // namespace biodem::output

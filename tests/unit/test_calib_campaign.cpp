@@ -1,0 +1,214 @@
+// The campaign library (src/calib) without the command line and without simulations: the
+// evaluation files read back bit for bit, the objectives, the job order of the scheduler, and a
+// whole campaign over a model of the bulk tests (a TestRunner that computes the responses from
+// the parameters): its files do not depend on --jobs, --resume re-uses the cache, and a folder
+// with an earlier campaign is refused.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "calib/calib_file.hpp"
+#include "calib/evaluations_csv.hpp"
+#include "calib/objectives.hpp"
+#include "calib/scheduler.hpp"
+#ifdef BIODEM_HAVE_PAGMO
+#include "calib/campaign.hpp"
+#endif
+#include "core/error.hpp"
+#include "test_util.hpp"
+
+using namespace biodem;
+using namespace biodem::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+// tests/cases/calib_micro: parameters mu_s, mu_r, ced_j_m3; tests heap and shear_box; targets
+// angle_of_repose_deg = 25 (o1) and retainment_ratio = 0.7 (o2).
+calib::CalibConfig micro() { return calib::load_calib(source_dir() + "/tests/cases/calib_micro/campaign.toml"); }
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+/// A file without its last column (wall_s, a timing).
+std::string without_wall(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, out;
+  while (std::getline(in, line)) out += line.substr(0, line.rfind(',')) + "\n";
+  return out;
+}
+
+}  // namespace
+
+TEST(CalibEvaluationsCsv, RowsReadBackBitForBitAndBrokenLinesAreSkipped) {
+  const auto c = micro();
+  ASSERT_EQ(c.parameters.size(), 3u);
+  ASSERT_EQ(calib::response_names(c), (std::vector<std::string>{"angle_of_repose_deg", "retainment_ratio"}));
+  EXPECT_EQ(calib::evaluations_header(c),
+            "generation,index,mu_s,mu_r,ced_j_m3,angle_of_repose_deg,retainment_ratio,o1,o2,wall_s");
+  calib::Evaluation e;
+  e.generation = 3;
+  e.index = 7;
+  e.x = {0.1, 1.0 / 3.0, 61234.567890123456};
+  e.responses = {std::nextafter(25.0, 30.0), 2.0 / 3.0};
+  e.o1 = 1e-17;
+  e.o2 = 1e9;
+  e.wall_s = 12.5;
+  const std::string d = fresh_dir("calib_csv");
+  fs::create_directories(d);
+  {
+    std::ofstream f(d + "/e.csv");
+    const std::string row = calib::evaluation_row(e);
+    f << calib::evaluations_header(c) << "\n" << row << "\n" << row.substr(0, row.size() / 2) << "\n"
+      << "x,y\n";  // a row cut by a kill, and a malformed one
+  }
+  const auto rows = calib::read_evaluations(d + "/e.csv", 3, 2);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].generation, 3u);
+  EXPECT_EQ(rows[0].index, 7u);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_TRUE(same_bits(rows[0].x[k], e.x[k])) << k;
+  for (std::size_t k = 0; k < 2; ++k) EXPECT_TRUE(same_bits(rows[0].responses[k], e.responses[k])) << k;
+  EXPECT_TRUE(same_bits(rows[0].o1, e.o1));
+  EXPECT_TRUE(same_bits(rows[0].o2, e.o2));
+  EXPECT_TRUE(calib::read_evaluations(d + "/missing.csv", 3, 2).empty());
+}
+
+TEST(CalibObjectives, WeightedMeanOfRelativeErrorsAndMissingResponses) {
+  auto c = micro();
+  EXPECT_DOUBLE_EQ(calib::objective(c, c.o1, {{"angle_of_repose_deg", 30.0}}), 5.0 / 25.0);
+  EXPECT_DOUBLE_EQ(calib::objective(c, c.o2, {{"retainment_ratio", 0.35}}), 0.5);
+  // Two responses with weights 3 and 1: (3 x 0.2 + 1 x 0.5) / 4.
+  c.o1.responses = {"angle_of_repose_deg", "retainment_ratio"};
+  c.o1.weights = {3.0, 1.0};
+  EXPECT_DOUBLE_EQ(calib::objective(c, c.o1, {{"angle_of_repose_deg", 20.0}, {"retainment_ratio", 1.05}}),
+                   (3.0 * 0.2 + 1.0 * 0.5) / 4.0);
+  EXPECT_TRUE(std::isnan(calib::objective(c, c.o1, {{"angle_of_repose_deg", 20.0}})));
+}
+
+TEST(CalibScheduler, ThreadsReturnTheResultsInJobOrder) {
+  std::vector<calib::TestJob> jobs(23);
+  for (std::size_t i = 0; i < jobs.size(); ++i) jobs[i].evaluation = i;
+  for (int threads : {1, 4}) {
+    std::atomic<int> running{0}, most{0};
+    const auto out = calib::run_on_threads(jobs, threads, [&](const calib::TestJob& j) {
+      const int now = ++running;
+      for (int m = most; now > m && !most.compare_exchange_weak(m, now);) {
+      }
+      // Later jobs finish first: the order of completion is not the order of the jobs.
+      std::this_thread::sleep_for(std::chrono::microseconds(200 * (30 - static_cast<int>(j.evaluation))));
+      --running;
+      calib::TestRun r;
+      r.rc = static_cast<int>(j.evaluation);
+      return r;
+    });
+    ASSERT_EQ(out.size(), jobs.size());
+    for (std::size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i].rc, static_cast<int>(i)) << threads;
+    EXPECT_LE(most.load(), threads);
+    if (threads == 1) {
+      EXPECT_EQ(most.load(), 1);
+    }
+  }
+}
+
+#ifdef BIODEM_HAVE_PAGMO
+namespace {
+
+/// A model of the two bulk tests: smooth functions of the parameters, no simulation.
+calib::TestRun model(const calib::TestJob& j, std::atomic<int>* calls) {
+  if (calls) ++*calls;
+  calib::TestRun r;
+  const double mu_s = j.x[0], mu_r = j.x[1], ced = j.x[2];
+  if (j.test == 0) r.responses["angle_of_repose_deg"] = 10.0 + 30.0 * mu_s + 10.0 * mu_r;
+  else r.responses["retainment_ratio"] = std::min(1.0, 0.3 + ced / 80000.0);
+  r.responses["at_rest"] = 1.0;
+  return r;
+}
+
+calib::CampaignSummary run(const calib::CalibConfig& c, const std::string& dir, int jobs, bool resume,
+                           std::atomic<int>* calls = nullptr) {
+  calib::CampaignOptions o;
+  o.out_dir = dir;
+  o.jobs = jobs;
+  o.resume = resume;
+  o.runner = [calls](const calib::TestJob& j) { return model(j, calls); };
+  return calib::run_campaign(c, o);
+}
+
+}  // namespace
+
+TEST(CalibCampaign, FilesDoNotDependOnJobsAndResumeReusesTheCache) {
+  const auto c = micro();  // population 8, 1 generation: 2 batches of 8
+  const std::string a = fresh_dir("calib_model_jobs1"), b = fresh_dir("calib_model_jobs3");
+  std::atomic<int> calls{0};
+  const auto sa = run(c, a, 1, false, &calls);
+  EXPECT_EQ(sa.evaluations, 16u);
+  EXPECT_GE(sa.pareto, 1u);
+  EXPECT_FALSE(sa.mpi_worker);
+  EXPECT_LE(calls.load(), 2 * 16);  // two tests per new decision vector
+  run(c, b, 3, false);
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(b + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(b + "/pareto.csv"));
+  const auto rows = calib::read_evaluations(a + "/evaluations.csv", 3, 2);
+  ASSERT_EQ(rows.size(), 16u);
+  for (const auto& e : rows) {
+    EXPECT_DOUBLE_EQ(e.responses[0], 10.0 + 30.0 * e.x[0] + 10.0 * e.x[1]);
+    EXPECT_DOUBLE_EQ(e.o1, std::abs(e.responses[0] - 25.0) / 25.0);
+  }
+  EXPECT_TRUE(fs::exists(a + "/pareto.png"));
+  EXPECT_TRUE(fs::exists(a + "/angle_of_repose_deg_vs_mu_s.svg"));
+
+  // A campaign killed after its first batch: cache.csv holds 8 rows. --resume evaluates only the
+  // second batch and ends with the same files.
+  const std::string k = fresh_dir("calib_model_resume");
+  fs::create_directories(k);
+  {
+    std::ifstream in(a + "/cache.csv");
+    std::ofstream out(k + "/cache.csv");
+    std::string line;
+    for (int n = 0; n < 9 && std::getline(in, line); ++n) out << line << "\n";
+  }
+  std::atomic<int> resumed_calls{0};
+  run(c, k, 2, true, &resumed_calls);
+  EXPECT_LE(resumed_calls.load(), 2 * 8);
+  EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(k + "/evaluations.csv"));
+  EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(k + "/pareto.csv"));
+  EXPECT_NE(slurp(k + "/campaign.log").find("8 evaluations cached"), std::string::npos);
+
+  // Without --resume a folder with a campaign is refused; --resume needs a cache.
+  EXPECT_THROW(run(c, a, 1, false), Error);
+  EXPECT_THROW(run(c, fresh_dir("calib_model_empty"), 1, true), Error);
+}
+
+TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {
+  const auto c = micro();
+  const std::string d = fresh_dir("calib_model_failed");
+  calib::CampaignOptions o;
+  o.out_dir = d;
+  o.runner = [](const calib::TestJob& j) {
+    calib::TestRun r = model(j, nullptr);
+    if (j.test == 1 && j.evaluation == 2) {
+      r.rc = 1;  // the shear box of the third evaluation of each batch fails
+      r.responses.clear();
+    }
+    return r;
+  };
+  calib::run_campaign(c, o);
+  const auto rows = calib::read_evaluations(d + "/evaluations.csv", 3, 2);
+  ASSERT_EQ(rows.size(), 16u);
+  for (const auto& e : rows) {
+    // Generation 1 may ask again for a failed vector of generation 0 (answered from the cache).
+    if (e.generation == 0) {
+      EXPECT_EQ(e.o1 == 1e9, e.index == 2) << e.index;
+    }
+    EXPECT_EQ(e.o1 == 1e9 && e.o2 == 1e9, std::isnan(e.responses[1])) << e.generation << " " << e.index;
+  }
+  EXPECT_NE(slurp(d + "/campaign.log").find("shear_box failed"), std::string::npos);
+}
+#else
+TEST(CalibCampaign, NotBuilt) { GTEST_SKIP() << "pagmo not found: the campaign is not built"; }
+#endif
