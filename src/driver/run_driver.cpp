@@ -104,7 +104,10 @@ double Runner::revolution() const {
 
 void Runner::write_log_header() {
   log_ << "biodem run\ncase: " << cfg_.source_path << "\nthreads: " << omp_get_max_threads() << "\n";
-  log_ << "engine: " << (dev_ ? "GPU engine on " + dev_->device_name() : std::string("CPU engine")) << "\n";
+  log_ << "engine: "
+       << (dev_ ? "GPU engine on " + dev_->device_name()
+                : "CPU engine, pair pass " + sim::pair_kernel_name(sim_.pair_kernel()))
+       << "\n";
   for (const auto& w : warnings_) log_ << "warning: " << w << "\n";
   log_ << "\n" << output::describe_case(cfg_) << "\n";
   log_ << "sampling: every " << sample_every_ << " steps (" << 1.0 / (sample_every_ * cfg_.run.dt_s)
