@@ -1,7 +1,7 @@
 // The pair pass of the CPU engine: the sphere-sphere contacts of a range of neighbour-list rows
 // (docs/performance.md). Each row's entries are written by the thread that evaluates the row; the
 // row owner sums its own side (force and torque on i, in entry order) and stores for the j side
-// what j gathers later (simulation.cpp, gather_and_walls).
+// what j gathers later (simulation_step.cpp, gather_and_walls).
 //
 // Two implementations of the same arithmetic:
 // - scalar: one contact at a time (the reference);

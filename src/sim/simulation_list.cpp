@@ -1,0 +1,227 @@
+// Simulation: the neighbour list and the bookkeeping around its rebuilds: spatial re-sorting of
+// the bodies, sinks, lost bodies, removal, and the per-sphere wall candidates.
+#include "sim/simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/error.hpp"
+#include "core/parallel.hpp"
+
+namespace biodem::sim {
+
+void Simulation::reorder_spatially() {
+  const std::size_t nb = bodies_.size(), ns = spheres_.size();
+  if (nb < 2) return;
+  double r_max = 0.0;
+  for (double r : spheres_.radius_m) r_max = std::max(r_max, r);
+  Vec3 lo{1e300, 1e300, 1e300};
+  for (const auto& x : bodies_.position_m)
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], x[k]);
+  const double cell = 2.0 * r_max + skin_m_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> key(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    std::uint64_t c[3];
+    for (int k = 0; k < 3; ++k)
+      c[k] = static_cast<std::uint64_t>(std::min(2.0e6, std::floor((bodies_.position_m[b][k] - lo[k]) / cell)));
+    key[b] = {(c[2] << 42) | (c[1] << 21) | c[0], static_cast<std::uint32_t>(b)};
+  }
+  std::sort(key.begin(), key.end());
+  std::vector<std::uint32_t> new_of_old_body(nb), new_of_old_sphere(ns);
+  for (std::size_t q = 0; q < nb; ++q) new_of_old_body[key[q].second] = static_cast<std::uint32_t>(q);
+
+  std::vector<std::uint32_t> old_body_of_new(nb);
+  for (std::size_t q = 0; q < nb; ++q) old_body_of_new[q] = key[q].second;
+  state::BodyStore nbs = state::gather(bodies_, old_body_of_new);
+  std::vector<std::uint32_t> old_sphere_of_new;
+  old_sphere_of_new.reserve(ns);
+  for (std::size_t q = 0; q < nb; ++q) {
+    nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+    const std::uint32_t s0 = bodies_.first_sphere[key[q].second];
+    for (std::uint32_t s = s0; s < s0 + nbs.sphere_count[q]; ++s) {
+      new_of_old_sphere[s] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+      old_sphere_of_new.push_back(s);
+    }
+  }
+  state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
+  for (std::size_t q = 0; q < ns; ++q) nss.body[q] = new_of_old_body[spheres_.body[old_sphere_of_new[q]]];
+  WallContacts wc;
+  wc.start.assign(ns + 1, 0);
+  for (std::size_t q = 0; q < ns; ++q) {
+    const std::uint32_t o = old_sphere_of_new[q];
+    for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+      wc.wall.push_back(wall_contacts_.wall[k]);
+      wc.history.push_back(wall_contacts_.history[k]);
+      wc.touching.push_back(wall_contacts_.touching[k]);
+    }
+    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
+  bodies_ = std::move(nbs);
+  spheres_ = std::move(nss);
+  wall_contacts_ = std::move(wc);
+  list_.renumber(new_of_old_sphere);
+}
+
+void Simulation::apply_sinks() {
+  if (sinks_.empty()) return;
+  const std::size_t nb = bodies_.size();
+  std::vector<std::uint8_t> flag(nb, 0);
+  bool any = false;
+  for (std::size_t b = 0; b < nb; ++b)
+    for (const auto& k : sinks_)
+      if (k.contains(bodies_.position_m[b])) {
+        flag[b] = 1;
+        any = true;
+        break;
+      }
+  if (any) remove_bodies(flag);
+}
+
+void Simulation::check_lost_bodies() {
+  if (lost_region_.kind == LostRegion::Kind::None) return;
+  const LostRegion& r = lost_region_;
+  const std::size_t nb = bodies_.size();
+  std::vector<std::uint8_t> flag(nb, 0);
+  std::size_t count = 0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Vec3 x = bodies_.position_m[b];
+    const double rb = templates_[bodies_.shape[b]].bounding_radius_m;
+    bool lost = !(x.x == x.x && x.y == x.y && x.z == x.z);
+    if (r.kind == LostRegion::Kind::Drum) {
+      lost = lost || x.x * x.x + x.y * x.y > (r.radius_m + rb) * (r.radius_m + rb);
+      if (!r.periodic_z) lost = lost || x.z < r.z0_m - rb || x.z > r.z1_m + rb;
+    } else {
+      for (int k = 0; k < 3; ++k) lost = lost || (!r.box_periodic[k] && (x[k] < r.min_m[k] || x[k] > r.max_m[k]));
+    }
+    if (!lost) continue;
+    if (!r.remove) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf, "body %u was lost at t = %.6g s: its centre (%.6g, %.6g, %.6g) m is outside the %s",
+                    bodies_.id[b], time_s_, x.x, x.y, x.z, r.kind == LostRegion::Kind::Drum ? "drum" : r.box_name);
+      throw Error(std::string(buf) + " (too large a time step, or an opening in the walls?); [run] lost_particles = \"remove\" removes such bodies instead");
+    }
+    flag[b] = 1;
+    ++count;
+  }
+  if (count == 0) return;
+  lost_bodies_ += count;
+  remove_bodies(flag);
+}
+
+std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
+  const std::size_t nb = bodies_.size(), ns = spheres_.size();
+  constexpr std::uint32_t kGone = neighbor::VerletList::kRemoved;
+  std::vector<std::uint32_t> keep_body, new_of_old_sphere(ns, kGone), old_sphere_of_new;
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (b < remove.size() && remove[b]) {
+      ++removed_bodies_;
+      removed_mass_kg_ += bodies_.mass_kg[b];
+      continue;
+    }
+    keep_body.push_back(static_cast<std::uint32_t>(b));
+  }
+  const std::size_t removed = nb - keep_body.size();
+  if (removed == 0) return 0;
+  state::BodyStore nbs = state::gather(bodies_, keep_body);
+  for (std::size_t q = 0; q < keep_body.size(); ++q) {
+    nbs.first_sphere[q] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+    const std::uint32_t s0 = bodies_.first_sphere[keep_body[q]];
+    for (std::uint32_t s = s0; s < s0 + nbs.sphere_count[q]; ++s) {
+      new_of_old_sphere[s] = static_cast<std::uint32_t>(old_sphere_of_new.size());
+      old_sphere_of_new.push_back(s);
+    }
+  }
+  const std::size_t ns_new = old_sphere_of_new.size();
+  state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
+  for (std::size_t q = 0; q < keep_body.size(); ++q)
+    for (std::uint32_t s = nbs.first_sphere[q]; s < nbs.first_sphere[q] + nbs.sphere_count[q]; ++s)
+      nss.body[s] = static_cast<std::uint32_t>(q);
+  WallContacts wc;
+  wc.start.assign(ns_new + 1, 0);
+  const bool have_wc = wall_contacts_.start.size() == ns + 1;
+  for (std::size_t q = 0; q < ns_new; ++q) {
+    const std::uint32_t o = old_sphere_of_new[q];
+    if (have_wc)
+      for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+        wc.wall.push_back(wall_contacts_.wall[k]);
+        wc.history.push_back(wall_contacts_.history[k]);
+        wc.touching.push_back(wall_contacts_.touching[k]);
+      }
+    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
+  }
+  bodies_ = std::move(nbs);
+  spheres_ = std::move(nss);
+  wall_contacts_ = std::move(wc);
+  list_.renumber(new_of_old_sphere);  // drops the removed spheres' pairs; forces a rebuild
+  return removed;
+}
+
+void Simulation::rebuild_neighbors() {
+  list_.build(spheres_);
+  update_wall_candidates();
+  blocks_for_ = {};  // re-balance the threads' blocks for the new list
+}
+
+void Simulation::update_wall_candidates() {
+  const std::size_t n = spheres_.size(), nw = walls_.size();
+  const auto& at = list_.built_at();
+  const WallContacts& old = wall_contacts_;
+  const bool have_old = old.start.size() == n + 1;
+  // Walls enlarged by the reach (radius + skin), so that a sphere sliding over a disc rim or a
+  // cylinder end before the next build is still a candidate.
+  auto candidate = [&](std::size_t i, std::size_t w) {
+    if (walls_[w].translates()) return true;  // a moving wall may come to any sphere
+    const double reach = spheres_.radius_m[i] + skin_m_;
+    walls::WallGeometry g = walls_[w].geometry;
+    if (g.kind == walls::Kind::Disc) g.radius_m += reach;
+    if (g.kind == walls::Kind::Rectangle) {
+      g.half_u_m += reach;
+      g.half_v_m += reach;
+    }
+    if (g.kind == walls::Kind::Cylinder && g.length_m > 0.0) {
+      g.point_m -= reach * g.normal;
+      g.length_m += 2.0 * reach;
+    }
+    return walls::wall_hit(g, at[i], reach).touching;
+  };
+  auto old_slot = [&](std::size_t i, std::size_t w) -> std::int64_t {
+    if (!have_old) return -1;
+    for (std::uint32_t k = old.start[i]; k < old.start[i + 1]; ++k)
+      if (old.wall[k] == w) return k;
+    return -1;
+  };
+  // Pass 1: count the candidates of each sphere; pass 2: fill them, carrying the history over.
+  std::vector<std::uint32_t> count(n + 1, 0);
+#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t c = 0;
+    for (std::size_t w = 0; w < nw; ++w) {
+      const std::int64_t k = old_slot(i, w);
+      if (candidate(i, w) || (k >= 0 && old.touching[k])) ++c;
+    }
+    count[i + 1] = c;
+  }
+  WallContacts wc;
+  wc.start.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) wc.start[i + 1] = wc.start[i] + count[i + 1];
+  wc.wall.resize(wc.start[n]);
+  wc.history.assign(wc.start[n], {});
+  wc.touching.assign(wc.start[n], 0);
+#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
+  for (std::size_t i = 0; i < n; ++i) {
+    std::uint32_t q = wc.start[i];
+    for (std::size_t w = 0; w < nw; ++w) {
+      const std::int64_t k = old_slot(i, w);
+      if (!(candidate(i, w) || (k >= 0 && old.touching[k]))) continue;
+      wc.wall[q] = static_cast<std::uint32_t>(w);
+      if (k >= 0) {
+        wc.history[q] = old.history[k];
+        wc.touching[q] = old.touching[k];
+      }
+      ++q;
+    }
+  }
+  wall_contacts_ = std::move(wc);
+}
+}  // namespace biodem::sim

@@ -1,0 +1,342 @@
+// Simulation: the time step (sim/simulation.hpp, docs/architecture.md section 3): the thread
+// team's job (drift, pair rows, gather, walls, body sums, kick), the work chunks, and the
+// per-sphere gather with the wall contacts. The pair rows are in pair_pass.cpp.
+#include "sim/simulation.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+
+#include "core/error.hpp"
+#include "core/parallel.hpp"
+#include "core/spin_team.hpp"
+#include "integrate/rigid_rotation.hpp"
+#include "integrate/velocity_verlet.hpp"
+
+#include <omp.h>
+
+namespace biodem::sim {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+/// Chunks of one pass handed out to the team: thread t starts with its home range of chunks
+/// (t/T to (t+1)/T of them, in order: on a quiet machine each thread keeps its own data in its
+/// cache), then takes what is left of the others' ranges. A thread that is slowed down (a vCPU
+/// that shares its core on a virtual machine) thus loses its chunks to the others instead of
+/// holding up the barrier. Which thread runs a chunk changes nothing in the results.
+class ChunkCursors {
+ public:
+  ChunkCursors(int threads, int chunks) : cursors_(static_cast<std::size_t>(std::max(threads, 1))) {
+    const int t = std::max(threads, 1);
+    for (int r = 0; r < t; ++r) {
+      cursors_[r].next.store(chunks * r / t, std::memory_order_relaxed);
+      cursors_[r].end = chunks * (r + 1) / t;
+    }
+  }
+  template <class F>
+  void for_each(int me, int team_size, F&& f) {
+    const int ranges = static_cast<int>(cursors_.size());
+    for (int r = 0; r < ranges; ++r) {
+      Cursor& c = cursors_[(me + r) % ranges];
+      for (int k = c.next.fetch_add(1, std::memory_order_relaxed); k < c.end;
+           k = c.next.fetch_add(1, std::memory_order_relaxed))
+        f(k);
+    }
+    (void)team_size;
+  }
+
+ private:
+  struct alignas(64) Cursor {
+    std::atomic<int> next{0};
+    int end = 0;
+  };
+  std::vector<Cursor> cursors_;
+};
+
+/// One thread's tallies in a step (summed after the team's job, in thread order).
+struct alignas(64) PerThread {
+  std::size_t pairs = 0, walls = 0;
+  double busy_s = 0.0;
+};
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+}  // namespace
+
+void Simulation::step() {
+  if (!forces_valid_ || !list_valid_) refresh();
+  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
+  update_wall_motion(time_s_ + dt_s_);
+  // Common case, one parallel region: drift, and unless the list must be rebuilt, the forces
+  // and the second kick too. A rebuild (or a sink, which needs the drifted bodies serially)
+  // leaves the region after the drift; the rest of the step then runs as separate passes.
+  const bool fused = sinks_.empty();
+  const bool done = fused ? step_in_one_region() : false;
+  if (!done) {
+    const bool moved = fused ? true : kick_drift_place();  // (fused: drifted, and a rebuild is due)
+    const Clock::time_point t1 = profile_on_ ? Clock::now() : Clock::time_point{};
+    if (profile_on_ && !fused) profile_.drift_s += std::chrono::duration<double>(t1 - t0).count();
+    apply_sinks();
+    if (moved || list_.built_at().size() != spheres_.size()) {
+      check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
+      if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();
+      rebuild_neighbors();
+      if (profile_on_) ++profile_.builds;
+    }
+    if (profile_on_) profile_.list_s += seconds_since(t1);
+    forces_and_kick(true);
+  }
+  // Sphere velocities at the full step are refreshed lazily, when someone reads the spheres
+  // (outputs, diagnostics); the next step refreshes them anyway.
+  spheres_stale_ = true;
+  time_s_ += dt_s_;
+  ++steps_;
+  if (profile_on_) {
+    profile_.step_s += seconds_since(t0);
+    ++profile_.steps;
+  }
+}
+
+int Simulation::drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2) {
+  // First half kick, drift, the body's spheres placed, and the list displacement test.
+  const double h = 0.5 * dt_s_, dt = dt_s_;
+  const std::vector<Vec3>& built = list_.built_at();
+  int moved = 0;
+  for (std::size_t b = b0; b < b1; ++b) {
+    integrate::kick_and_drift(bodies_.position_m[b], bodies_.velocity_m_s[b], bodies_.angular_velocity_rad_s[b],
+                              bodies_.angular_momentum_kg_m2_s[b], bodies_.orientation[b], bodies_.mass_kg[b],
+                              bodies_.inertia_kg_m2[b], bodies_.sphere_count[b], bodies_.force_n[b],
+                              bodies_.torque_n_m[b], h, dt);
+    place_spheres_of(b);
+    if (have_built) {
+      const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+      for (std::uint32_t s = s0; s < s1; ++s)
+        if (!(norm2(spheres_.position_m[s] - built[s]) <= limit2)) moved = 1;  // NaN also triggers a (failing) build
+    }
+  }
+  return moved;
+}
+
+bool Simulation::kick_drift_place() {
+  // The drift as its own pass (scenes with sinks). Each thread takes the same block of bodies
+  // as in the force pass, so the data it writes stay in its own cache from step to step.
+  ensure_work_blocks();
+  const int blocks = static_cast<int>(block_body_.size()) - 1;
+  const bool have_built = list_.built_at().size() == spheres_.size();
+  const double limit2 = list_.rebuild_limit2();
+  std::vector<int> moved_by(static_cast<std::size_t>(std::max(blocks, 1)), 0);
+  ChunkCursors drift_chunks(threads_, blocks);
+  team().run(threads_, [&](int me, int team_size) {
+    drift_chunks.for_each(me, team_size, [&](int k) {
+      moved_by[k] |= drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2);
+    });
+  });
+  int moved = have_built ? 0 : 1;
+  for (int m : moved_by) moved |= m;
+  spheres_stale_ = false;
+  return moved != 0;
+}
+
+bool Simulation::step_in_one_region() {
+  if (cohesion_) return rolling_ ? step_job<true, true>(true, true) : step_job<true, false>(true, true);
+  return rolling_ ? step_job<false, true>(true, true) : step_job<false, false>(true, true);
+}
+
+template <bool Cohesion, bool Rolling>
+bool Simulation::step_job(bool drift, bool kick) {
+  // One job of the thread team. With drift: the drift of every chunk, a barrier, and every
+  // thread reads all chunks' displacement flags (so all take the same branch); if a rebuild is
+  // due the job ends there (returns false: the bodies have drifted). Then: pair rows, a barrier,
+  // gather, walls, body sums and (with kick) the second half kick.
+  ensure_work_blocks();
+  const int blocks = static_cast<int>(block_body_.size()) - 1;
+  const bool have_built = list_.built_at().size() == spheres_.size();
+  const double limit2 = list_.rebuild_limit2();
+  if (drift) block_moved_.assign(static_cast<std::size_t>(blocks), 0);
+  bool rebuild = false;
+  const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
+  double drift_end_s = 0.0, pair_end_s = 0.0;
+  std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
+  ChunkCursors drift_chunks(threads_, blocks), pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
+  const PairPassData pass = pair_pass_data();
+  team().run(threads_, [&](int me, int team_size) {
+    if (drift) {
+      drift_chunks.for_each(me, team_size, [&](int k) {
+        block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
+      });
+      team().barrier();
+      bool any = !have_built;
+      for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
+      if (me == 0) {
+        rebuild = any;
+        if (profile_on_) drift_end_s = seconds_since(t0);
+      }
+      if (any) return;
+    }
+    const Clock::time_point tp = profile_on_ ? Clock::now() : Clock::time_point{};
+    pair_chunks.for_each(me, team_size, [&](int k) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) return;
+      per[me].pairs += sim::pair_rows<Cohesion, Rolling>(
+          pair_kernel_, pass, bodies_.first_sphere[b0], bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+    });
+    if (profile_on_) per[me].busy_s = seconds_since(tp);
+    team().barrier();
+    if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
+    gather_chunks.for_each(me, team_size, [&](int k) {
+      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
+      if (b0 == b1) return;
+      per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
+                                                           bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
+      reduce_and_kick(b0, b1, kick);
+    });
+  });
+  if (drift) {
+    spheres_stale_ = false;
+    if (profile_on_) profile_.drift_s += drift_end_s;
+    if (rebuild) return false;
+  }
+  std::size_t pair_contacts = 0, wall_contacts = 0;
+  double busy_s = 0.0;
+  for (const PerThread& q : per) {
+    pair_contacts += q.pairs;
+    wall_contacts += q.walls;
+    busy_s += q.busy_s;
+  }
+  contacts_ = pair_contacts + wall_contacts;
+  if (profile_on_ && kick) {
+    profile_.pairs_s += pair_end_s - drift_end_s;
+    profile_.pairs_busy_s += busy_s / std::max(1, threads_);
+    profile_.gather_s += seconds_since(t0) - pair_end_s;
+  }
+  return true;
+}
+
+void Simulation::ensure_work_blocks() {
+  const std::size_t want = spheres_.size() >= kParallelThreshold ? static_cast<std::size_t>(std::max(1, omp_get_max_threads())) : 1;
+  if (blocks_for_ != std::pair<std::size_t, std::size_t>{bodies_.size(), want}) update_work_blocks();
+}
+
+void Simulation::update_work_blocks() {
+  // Cuts the bodies into one contiguous block per thread with about the same work: per sphere,
+  // its list row and reverse entries, its wall candidates and a constant for the per-sphere
+  // work. Bodies own contiguous spheres, so a block is also a contiguous range of spheres, and
+  // the thread that evaluates a block's rows also gathers and integrates its bodies (the pair
+  // results it reads were mostly written by itself). The cuts only decide who does what: the
+  // result is the same for any cuts.
+  const std::size_t nb = bodies_.size(), n = spheres_.size();
+  const int threads = n >= kParallelThreshold ? std::max(1, omp_get_max_threads()) : 1;
+  const int chunks = threads == 1 ? 1 : threads * kChunksPerThread;
+  const bool rows_ok = list_.row_start.size() == n + 1 && list_.rev_start.size() == n + 1 &&
+                       wall_contacts_.start.size() == n + 1;
+  block_body_.assign(static_cast<std::size_t>(chunks) + 1, nb);
+  block_body_[0] = 0;
+  threads_ = threads;
+  if (chunks == 1 || !rows_ok) {
+    for (int t = 1; t < chunks; ++t) block_body_[t] = nb * t / chunks;
+    blocks_for_ = {nb, static_cast<std::size_t>(threads)};
+    return;
+  }
+  std::vector<double> prefix(nb + 1, 0.0);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+    const double w = static_cast<double>(list_.row_start[s1] - list_.row_start[s0]) +
+                     0.25 * static_cast<double>(list_.rev_start[s1] - list_.rev_start[s0]) +
+                     static_cast<double>(wall_contacts_.start[s1] - wall_contacts_.start[s0]) +
+                     1.0 * static_cast<double>(s1 - s0);
+    prefix[b + 1] = prefix[b] + w;
+  }
+  for (int t = 1; t < chunks; ++t) {
+    const double target = prefix[nb] * t / chunks;
+    block_body_[t] = static_cast<std::size_t>(std::lower_bound(prefix.begin(), prefix.end(), target) - prefix.begin());
+    block_body_[t] = std::clamp(block_body_[t], block_body_[t - 1], nb);
+  }
+  blocks_for_ = {nb, static_cast<std::size_t>(threads)};
+}
+
+PairPassData Simulation::pair_pass_data() {
+  PairPassData d;
+  d.position_m = spheres_.position_m.data();
+  d.velocity_m_s = spheres_.velocity_m_s.data();
+  d.angular_velocity_rad_s = spheres_.angular_velocity_rad_s.data();
+  d.radius_m = spheres_.radius_m.data();
+  d.body_mass_kg = spheres_.body_mass_kg.data();
+  d.material = spheres_.material.data();
+  d.pairs = &pairs_;
+  d.list = &list_;
+  d.force_n = spheres_.force_n.data();
+  d.torque_n_m = spheres_.torque_n_m.data();
+  d.dt_s = dt_s_;
+  d.periodic = domain_.any_periodic();
+  return d;
+}
+
+void Simulation::forces_and_kick(bool kick) {
+  if (cohesion_) rolling_ ? step_job<true, true>(false, kick) : step_job<true, false>(false, kick);
+  else rolling_ ? step_job<false, true>(false, kick) : step_job<false, false>(false, kick);
+}
+
+template <bool Cohesion, bool Rolling>
+std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
+  // Per sphere, in a fixed order: its own row's sum, the entries where it is the j side (rows in
+  // ascending order), then its wall contacts.
+  const auto& s = spheres_;
+  const auto& L = list_;
+  auto& wc = wall_contacts_;
+  const double dt = dt_s_;
+  std::size_t contacts = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
+    Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
+    for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
+      const std::uint32_t k = L.rev_entry[q];
+      f -= L.force_i[k];
+      t += L.torque_j[k];
+    }
+    for (std::uint32_t slot = wc.start[i]; slot < wc.start[i + 1]; ++slot) {
+      const WallSpec& ws = walls_[wc.wall[slot]];
+      const double ri = s.radius_m[i];
+      const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
+      if (!hit.touching) {
+        if (wc.touching[slot]) {
+          wc.touching[slot] = 0;
+          wc.history[slot] = {};
+        }
+        continue;
+      }
+      const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
+      const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
+      // The wall's spin enters only EPSD2 (w_rel); "lab" drops it (LIGGGHTS 3.8.0 convention).
+      const Vec3 w_wall = wall_rolling_lab_ ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+      const contact::ContactGeometry g = contact::sphere_wall_geometry(
+          hit.normal, hit.gap_m, ri, s.body_mass_kg[i], s.velocity_m_s[i], s.angular_velocity_rad_s[i], v_wall, w_wall);
+      const contact::PairParams& p = pairs_(s.material[i], ws.material);
+      const double area = Cohesion ? contact::sjkr_area_sphere_wall(ri, hit.gap_m) : 0.0;
+      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(g, p, wc.history[slot], area, dt);
+      wc.touching[slot] = 1;
+      f += out.force_i;
+      t += out.torque_i;
+      ++contacts;
+    }
+    spheres_.force_n[i] = f;
+    spheres_.torque_n_m[i] = t;
+  }
+  return contacts;
+}
+
+void Simulation::reduce_and_kick(std::size_t b0, std::size_t b1, bool kick) {
+  // Body force (with gravity) and torque about the centre of mass, then the second half kick.
+  const double h = 0.5 * dt_s_;
+  for (std::size_t b = b0; b < b1; ++b) {
+    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
+    Vec3 f = bodies_.mass_kg[b] * gravity_, t;
+    for (std::uint32_t s = s0; s < s0 + ns; ++s) {
+      f += spheres_.force_n[s];
+      t += spheres_.torque_n_m[s] + cross(spheres_.position_m[s] - bodies_.position_m[b], spheres_.force_n[s]);
+    }
+    bodies_.force_n[b] = f;
+    bodies_.torque_n_m[b] = t;
+    if (!kick) continue;
+    integrate::half_kick(bodies_.velocity_m_s[b], bodies_.angular_velocity_rad_s[b], bodies_.angular_momentum_kg_m2_s[b],
+                         bodies_.orientation[b], bodies_.mass_kg[b], bodies_.inertia_kg_m2[b], ns, f, t, h);
+  }
+}
+}  // namespace biodem::sim
