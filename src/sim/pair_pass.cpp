@@ -144,7 +144,9 @@ class LaneRows {
 };
 
 bool cpu_has(PairKernel k) {
-#if defined(BIODEM_X86_LANES)
+#if !defined(BIODEM_SIMD_LANES)
+  return k == PairKernel::Scalar;  // built without <experimental/simd>
+#elif defined(BIODEM_X86_LANES)
   if (k == PairKernel::Lanes4) return __builtin_cpu_supports("avx2");
   if (k == PairKernel::Lanes8) return __builtin_cpu_supports("avx512f");
   return true;
@@ -158,9 +160,9 @@ bool cpu_has(PairKernel k) {
 bool pair_kernel_available(PairKernel k) { return cpu_has(k); }
 
 PairKernel best_pair_kernel() {
-  for (PairKernel k : {PairKernel::Lanes8, PairKernel::Lanes4})
+  for (PairKernel k : {PairKernel::Lanes8, PairKernel::Lanes4, PairKernel::Lanes2})
     if (cpu_has(k)) return k;
-  return PairKernel::Lanes2;
+  return PairKernel::Scalar;
 }
 
 std::string pair_kernel_name(PairKernel k) {
@@ -196,7 +198,11 @@ std::size_t pair_rows(PairKernel kernel, const PairPassData& d, std::size_t i0, 
     case PairKernel::Lanes4: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes4<Cohesion, Rolling>).run(i0, i1);
     case PairKernel::Lanes8: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes8<Cohesion, Rolling>).run(i0, i1);
 #endif
+#if defined(BIODEM_SIMD_LANES)
     default: return LaneRows<Cohesion, Rolling>(d, &evaluate_batch_lanes2<Cohesion, Rolling>).run(i0, i1);
+#else
+    default: return rows_scalar<Cohesion, Rolling>(d, i0, i1);
+#endif
   }
 }
 

@@ -80,8 +80,11 @@ struct PairBatch {
   const PairPassData* data = nullptr;
 };
 
-// Each evaluates slots [0, n rounded up to its width) of the batch.
+// Each evaluates slots [0, n rounded up to its width) of the batch. BIODEM_SIMD_LANES: the
+// compiler has <experimental/simd> (CMakeLists.txt); without it the pass is scalar only.
+#if defined(BIODEM_SIMD_LANES)
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes2(PairBatch& b);
+#endif
 #if defined(BIODEM_X86_LANES)
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes4(PairBatch& b);
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes8(PairBatch& b);
