@@ -51,21 +51,7 @@ Bed make_bed(bool cohesion, bool rolling) {
   return b;
 }
 
-sim::PairPassData view(Bed& b) {
-  sim::PairPassData d;
-  d.position_m = b.s.position_m.data();
-  d.velocity_m_s = b.s.velocity_m_s.data();
-  d.angular_velocity_rad_s = b.s.angular_velocity_rad_s.data();
-  d.radius_m = b.s.radius_m.data();
-  d.body_mass_kg = b.s.body_mass_kg.data();
-  d.material = b.s.material.data();
-  d.pairs = &b.pairs;
-  d.list = &b.list;
-  d.force_n = b.s.force_n.data();
-  d.torque_n_m = b.s.torque_n_m.data();
-  d.dt_s = 1.5e-5;
-  return d;
-}
+sim::PairPassData view(Bed& b) { return sim::make_pair_pass_data(b.s, b.list, b.pairs, 1.5e-5, false); }
 
 template <bool C, bool R>
 void BM_PairPass(benchmark::State& st) {

@@ -159,6 +159,24 @@ bool cpu_has(PairKernel k) {
 
 bool pair_kernel_available(PairKernel k) { return cpu_has(k); }
 
+PairPassData make_pair_pass_data(state::SphereStore& s, neighbor::VerletList& list, const contact::PairTable& pairs,
+                                 double dt_s, bool periodic) {
+  PairPassData d;
+  d.position_m = s.position_m.data();
+  d.velocity_m_s = s.velocity_m_s.data();
+  d.angular_velocity_rad_s = s.angular_velocity_rad_s.data();
+  d.radius_m = s.radius_m.data();
+  d.body_mass_kg = s.body_mass_kg.data();
+  d.material = s.material.data();
+  d.pairs = &pairs;
+  d.list = &list;
+  d.force_n = s.force_n.data();
+  d.torque_n_m = s.torque_n_m.data();
+  d.dt_s = dt_s;
+  d.periodic = periodic;
+  return d;
+}
+
 PairKernel best_pair_kernel() {
   for (PairKernel k : {PairKernel::Lanes8, PairKernel::Lanes4, PairKernel::Lanes2})
     if (cpu_has(k)) return k;

@@ -21,6 +21,7 @@
 #include "contact/pair_table.hpp"
 #include "core/vec3.hpp"
 #include "neighbor/verlet_list.hpp"
+#include "state/particle_store.hpp"
 
 namespace biodem::sim {
 
@@ -39,6 +40,10 @@ struct PairPassData {
   double dt_s = 0.0;
   bool periodic = false;
 };
+
+/// The views of a sphere store, its list and pair table (Simulation, benchmarks, tests).
+PairPassData make_pair_pass_data(state::SphereStore& s, neighbor::VerletList& list, const contact::PairTable& pairs,
+                                 double dt_s, bool periodic);
 
 /// Which implementation evaluates the contacts: Scalar, or SIMD lanes of 2, 4 or 8 doubles.
 enum class PairKernel { Scalar = 1, Lanes2 = 2, Lanes4 = 4, Lanes8 = 8 };

@@ -246,6 +246,10 @@ class Simulation {
   /// Renumbers bodies (and their spheres) in cell order so that neighbours are close in memory;
   /// remaps the contact history. Stable ids are kept in BodyStore::id.
   void reorder_spatially();
+  /// Takes renumbered stores (re-sort, removal) with the wall slots and the list remapped.
+  void adopt_renumbered(state::BodyStore&& nbs, state::SphereStore&& nss,
+                        const std::vector<std::uint32_t>& old_sphere_of_new,
+                        const std::vector<std::uint32_t>& new_of_old_sphere);
   /// Rebuilds the list and the per-sphere wall candidate masks.
   void rebuild_neighbors();
   /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2

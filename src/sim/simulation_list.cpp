@@ -46,21 +46,31 @@ void Simulation::reorder_spatially() {
   }
   state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
   for (std::size_t q = 0; q < ns; ++q) nss.body[q] = new_of_old_body[spheres_.body[old_sphere_of_new[q]]];
+  adopt_renumbered(std::move(nbs), std::move(nss), old_sphere_of_new, new_of_old_sphere);
+}
+
+void Simulation::adopt_renumbered(state::BodyStore&& nbs, state::SphereStore&& nss,
+                                  const std::vector<std::uint32_t>& old_sphere_of_new,
+                                  const std::vector<std::uint32_t>& new_of_old_sphere) {
+  // Each kept sphere takes its wall slots (and their history) along.
+  const std::size_t ns_new = old_sphere_of_new.size();
   WallContacts wc;
-  wc.start.assign(ns + 1, 0);
-  for (std::size_t q = 0; q < ns; ++q) {
+  wc.start.assign(ns_new + 1, 0);
+  const bool have_wc = wall_contacts_.start.size() == spheres_.size() + 1;
+  for (std::size_t q = 0; q < ns_new; ++q) {
     const std::uint32_t o = old_sphere_of_new[q];
-    for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
-      wc.wall.push_back(wall_contacts_.wall[k]);
-      wc.history.push_back(wall_contacts_.history[k]);
-      wc.touching.push_back(wall_contacts_.touching[k]);
-    }
+    if (have_wc)
+      for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
+        wc.wall.push_back(wall_contacts_.wall[k]);
+        wc.history.push_back(wall_contacts_.history[k]);
+        wc.touching.push_back(wall_contacts_.touching[k]);
+      }
     wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
   }
   bodies_ = std::move(nbs);
   spheres_ = std::move(nss);
   wall_contacts_ = std::move(wc);
-  list_.renumber(new_of_old_sphere);
+  list_.renumber(new_of_old_sphere);  // a removed sphere's pairs are dropped; forces a rebuild
 }
 
 void Simulation::apply_sinks() {
@@ -132,28 +142,11 @@ std::size_t Simulation::remove_bodies(const std::vector<std::uint8_t>& remove) {
       old_sphere_of_new.push_back(s);
     }
   }
-  const std::size_t ns_new = old_sphere_of_new.size();
   state::SphereStore nss = state::gather(spheres_, old_sphere_of_new);
   for (std::size_t q = 0; q < keep_body.size(); ++q)
     for (std::uint32_t s = nbs.first_sphere[q]; s < nbs.first_sphere[q] + nbs.sphere_count[q]; ++s)
       nss.body[s] = static_cast<std::uint32_t>(q);
-  WallContacts wc;
-  wc.start.assign(ns_new + 1, 0);
-  const bool have_wc = wall_contacts_.start.size() == ns + 1;
-  for (std::size_t q = 0; q < ns_new; ++q) {
-    const std::uint32_t o = old_sphere_of_new[q];
-    if (have_wc)
-      for (std::uint32_t k = wall_contacts_.start[o]; k < wall_contacts_.start[o + 1]; ++k) {
-        wc.wall.push_back(wall_contacts_.wall[k]);
-        wc.history.push_back(wall_contacts_.history[k]);
-        wc.touching.push_back(wall_contacts_.touching[k]);
-      }
-    wc.start[q + 1] = static_cast<std::uint32_t>(wc.wall.size());
-  }
-  bodies_ = std::move(nbs);
-  spheres_ = std::move(nss);
-  wall_contacts_ = std::move(wc);
-  list_.renumber(new_of_old_sphere);  // drops the removed spheres' pairs; forces a rebuild
+  adopt_renumbered(std::move(nbs), std::move(nss), old_sphere_of_new, new_of_old_sphere);
   return removed;
 }
 

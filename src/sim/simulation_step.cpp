@@ -254,20 +254,7 @@ void Simulation::update_work_blocks() {
 }
 
 PairPassData Simulation::pair_pass_data() {
-  PairPassData d;
-  d.position_m = spheres_.position_m.data();
-  d.velocity_m_s = spheres_.velocity_m_s.data();
-  d.angular_velocity_rad_s = spheres_.angular_velocity_rad_s.data();
-  d.radius_m = spheres_.radius_m.data();
-  d.body_mass_kg = spheres_.body_mass_kg.data();
-  d.material = spheres_.material.data();
-  d.pairs = &pairs_;
-  d.list = &list_;
-  d.force_n = spheres_.force_n.data();
-  d.torque_n_m = spheres_.torque_n_m.data();
-  d.dt_s = dt_s_;
-  d.periodic = domain_.any_periodic();
-  return d;
+  return make_pair_pass_data(spheres_, list_, pairs_, dt_s_, domain_.any_periodic());
 }
 
 void Simulation::forces_and_kick(bool kick) {

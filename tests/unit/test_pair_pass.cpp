@@ -76,20 +76,7 @@ Scene make_scene(bool cohesion, bool rolling, bool reduce, bool periodic) {
 }
 
 sim::PairPassData view(Scene& sc, bool periodic) {
-  sim::PairPassData d;
-  d.position_m = sc.s.position_m.data();
-  d.velocity_m_s = sc.s.velocity_m_s.data();
-  d.angular_velocity_rad_s = sc.s.angular_velocity_rad_s.data();
-  d.radius_m = sc.s.radius_m.data();
-  d.body_mass_kg = sc.s.body_mass_kg.data();
-  d.material = sc.s.material.data();
-  d.pairs = &sc.pairs;
-  d.list = &sc.list;
-  d.force_n = sc.s.force_n.data();
-  d.torque_n_m = sc.s.torque_n_m.data();
-  d.dt_s = 1e-5;
-  d.periodic = periodic;
-  return d;
+  return sim::make_pair_pass_data(sc.s, sc.list, sc.pairs, 1e-5, periodic);
 }
 
 // Runs 40 passes; between passes the spheres move a little (so contacts open and close).
