@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <unordered_map>
 
@@ -9,6 +10,17 @@
 
 namespace biodem::scenario {
 namespace {
+
+// The trials of a wave are shared by its requests, as LIGGGHTS' insert/pack shares maxattempt
+// over the particles of an insertion: max_attempts per request still to place, saturating.
+// A request that needs more than max_attempts trials near the jamming limit of random
+// sequential placement takes them from the budget instead of stopping the wave.
+std::uint64_t wave_attempt_budget(std::size_t requests, std::uint64_t max_attempts) {
+  const auto n = static_cast<std::uint64_t>(requests);
+  if (n != 0 && max_attempts > std::numeric_limits<std::uint64_t>::max() / n)
+    return std::numeric_limits<std::uint64_t>::max();
+  return n * max_attempts;
+}
 
 /// Hash grid of sphere centres for overlap tests during insertion.
 class SphereHash {
@@ -104,11 +116,12 @@ std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& reg, const s
   }
   constexpr auto u = uniform01;  // core/random.hpp: the same numbers with every library
   std::vector<Vec3> placed;
-  while (next < todo.size()) {
+  std::uint64_t budget = wave_attempt_budget(todo.size() - next, max_attempts);
+  while (next < todo.size() && budget > 0) {
     const auto& req = todo[next];
     const auto& t = templates[req.shape];
     bool ok = false;
-    for (std::uint64_t a = 0; a < max_attempts && !ok; ++a) {
+    for (; budget > 0 && !ok; --budget) {
       // Uniform point in the disc (area-uniform radius) and along z.
       const double rr = (reg.radius_m - t.bounding_radius_m) * std::sqrt(u(rng));
       const double phi = 2.0 * std::numbers::pi * u(rng);
@@ -135,8 +148,7 @@ std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& reg, const s
       b.orientation = q;
       sim.add_body(b);
     }
-    if (!ok) break;
-    ++next;
+    if (ok) ++next;
   }
   return next;
 }
@@ -170,12 +182,13 @@ std::size_t insert_wave(sim::Simulation& sim, const Region& reg, const std::vect
   const Vec3 e2 = cross(a, e1);
   constexpr auto u = uniform01;  // core/random.hpp: the same numbers with every library
   std::vector<Vec3> placed;
-  while (next < todo.size()) {
+  std::uint64_t budget = wave_attempt_budget(todo.size() - next, max_attempts);
+  while (next < todo.size() && budget > 0) {
     const auto& req = todo[next];
     const auto& t = templates[req.shape];
     const double b = t.bounding_radius_m;
     bool ok = false;
-    for (std::uint64_t k = 0; k < max_attempts && !ok; ++k) {
+    for (; budget > 0 && !ok; --budget) {
       // Body centre uniform in the region shrunk by the bounding radius (when it fits), so that
       // few trials fall outside.
       Vec3 pos;
@@ -210,8 +223,7 @@ std::size_t insert_wave(sim::Simulation& sim, const Region& reg, const std::vect
       bi.orientation = q;
       sim.add_body(bi);
     }
-    if (!ok) break;
-    ++next;
+    if (ok) ++next;
   }
   return next;
 }

@@ -30,7 +30,10 @@ std::vector<InsertionRequest> plan_population(std::uint64_t count, const std::ve
                                               const std::vector<InsertionRequest>& populations, std::mt19937_64& rng);
 
 /// Tries to place the requests from `next` on; returns the index one past the last placed
-/// request (requests are placed in order; a request that fails `max_attempts` times stops the wave).
+/// request. Requests are placed in order; the wave has max_attempts trials per request still to
+/// place, shared by all of them (a request may use more than max_attempts), and stops when they
+/// are spent. A request placed within max_attempts trials draws the same numbers as it would
+/// with a per-request limit.
 std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& region, const std::vector<InsertionRequest>& todo,
                         std::size_t next, std::uint64_t max_attempts, std::mt19937_64& rng);
 

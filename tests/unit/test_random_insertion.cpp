@@ -98,3 +98,46 @@ TEST(Random, GoldenInsertedPositionsForASeed) {
     EXPECT_NEAR(q.z, gold[b][7], 1e-12);
   }
 }
+
+// The trials of a wave are shared by its requests (LIGGGHTS' insert/pack): a wave where nothing
+// fits spends max_attempts trials for every request still to place (3 draws each for a sphere:
+// radius, angle, z), not max_attempts in all; a wave that fits has the same draws as before.
+TEST(Random, InsertionWaveSharesItsTrialsAcrossRequests) {
+  config::Shape sphere;
+  sphere.name = "sphere";
+  sphere.kind = config::ShapeKind::Sphere;
+  sphere.diameter_m = 1e-3;
+  contact::PairTable pairs(1);
+  const auto todo = std::vector<scenario::InsertionRequest>(8, scenario::InsertionRequest{0, 0});
+  {
+    sim::Simulation s({shapes::make_template(sphere, 1.0)}, {1000.0}, pairs, 1e-6, {0, 0, -9.81});
+    std::mt19937_64 rng(99), expect(99);
+    const scenario::CylinderRegion too_thin{10e-3, 0.0, 0.5e-3, false};  // narrower than a bead
+    EXPECT_EQ(scenario::insert_wave(s, too_thin, todo, 3, 7, rng), 3u);
+    EXPECT_EQ(s.bodies().size(), 0u);
+    expect.discard(3 * 7 * 5);  // 5 requests left, 7 trials each, 3 draws per trial
+    EXPECT_EQ(rng, expect);
+  }
+  {
+    // Room for all: one trial per request with a limit of one trial each.
+    sim::Simulation s({shapes::make_template(sphere, 1.0)}, {1000.0}, pairs, 1e-6, {0, 0, -9.81});
+    std::mt19937_64 rng(5), expect(5);
+    const scenario::CylinderRegion roomy{0.5, 0.0, 0.5, false};
+    EXPECT_EQ(scenario::insert_wave(s, roomy, todo, 0, 1, rng), 8u);
+    expect.discard(3 * 8);
+    EXPECT_EQ(rng, expect);
+  }
+  {
+    // Crowded: a drum of 6 mm x 1 mm holds about 20 beads; 60 requests, 1 trial each. A
+    // per-request limit would stop at the first miss; the shared budget spends all 60 trials.
+    sim::Simulation s({shapes::make_template(sphere, 1.0)}, {1000.0}, pairs, 1e-6, {0, 0, -9.81});
+    const auto many = std::vector<scenario::InsertionRequest>(60, scenario::InsertionRequest{0, 0});
+    std::mt19937_64 rng(11), expect(11);
+    const scenario::CylinderRegion crowded{3e-3, 0.0, 1e-3, false};
+    const std::size_t placed = scenario::insert_wave(s, crowded, many, 0, 1, rng);
+    EXPECT_LT(placed, 60u);
+    EXPECT_EQ(s.bodies().size(), placed);
+    expect.discard(3 * 60);  // all 60 trials spent: the wave did not stop at the first miss
+    EXPECT_EQ(rng, expect);
+  }
+}
