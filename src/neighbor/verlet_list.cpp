@@ -105,28 +105,35 @@ std::int32_t pack_image(int sx, int sy, int sz) {
          (static_cast<std::int32_t>(static_cast<std::uint8_t>(static_cast<std::int8_t>(sz))) << 16);
 }
 
-/// Visits every candidate neighbour j of sphere i in the 27 surrounding cells, with its image.
+/// Calls f(lo, hi, wrap) for the items [lo, hi) of the 27 cells around cell ci, with the
+/// periodic image (-1, 0, 1 per axis) under which they are seen from ci. Along a non-periodic x
+/// the three cells of a row are adjacent in the item order and come as one range.
 template <class F>
-void for_each_candidate(const Grid& g, const Domain& dom, std::size_t i, F&& f) {
-  const auto& ci = g.cell_of[i];
+void for_each_cell_around(const Grid& g, const Domain& dom, const std::array<int, 3>& ci, F&& f) {
   for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int d[3] = {dx, dy, dz};
-        int c[3], wrap[3] = {0, 0, 0};
-        bool skip = false;
-        for (int k = 0; k < 3; ++k) {
-          c[k] = ci[k] + d[k];
-          if (c[k] < 0 || c[k] >= g.n[k]) {
-            if (!dom.periodic[k]) { skip = true; break; }
-            wrap[k] = c[k] < 0 ? -1 : 1;
-            c[k] -= wrap[k] * g.n[k];
-          }
+    for (int dy = -1; dy <= 1; ++dy) {
+      int c[3] = {0, ci[1] + dy, ci[2] + dz}, wrap[3] = {0, 0, 0};
+      bool skip = false;
+      for (int k = 1; k < 3; ++k)
+        if (c[k] < 0 || c[k] >= g.n[k]) {
+          if (!dom.periodic[k]) { skip = true; break; }
+          wrap[k] = c[k] < 0 ? -1 : 1;
+          c[k] -= wrap[k] * g.n[k];
         }
-        if (skip) continue;
-        const std::size_t cell = g.index(c[0], c[1], c[2]);
-        for (std::uint32_t p = g.start[cell]; p < g.start[cell + 1]; ++p) f(g.items[p], wrap);
+      if (skip) continue;
+      if (!dom.periodic[0]) {
+        const int x0 = std::max(ci[0] - 1, 0), x1 = std::min(ci[0] + 1, g.n[0] - 1);
+        f(g.start[g.index(x0, c[1], c[2])], g.start[g.index(x1, c[1], c[2]) + 1], wrap);
+        continue;
       }
+      for (int dx = -1; dx <= 1; ++dx) {
+        c[0] = ci[0] + dx;
+        wrap[0] = c[0] < 0 ? -1 : (c[0] >= g.n[0] ? 1 : 0);
+        c[0] -= wrap[0] * g.n[0];
+        const std::size_t cell = g.index(c[0], c[1], c[2]);
+        f(g.start[cell], g.start[cell + 1], wrap);
+      }
+    }
 }
 
 }  // namespace
@@ -138,31 +145,61 @@ void VerletList::build(const state::SphereStore& s) {
   const Grid g = make_grid(s, domain_, 2.0 * r_max + skin_m_);
   const Vec3 len = domain_.length_m();
 
-  // Pass 1: candidate rows, per sphere (parallel, each row written by one thread).
-  std::vector<std::vector<std::pair<std::uint32_t, std::int32_t>>> rows(n);
-#pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
-    auto& row = rows[i];
-    const Vec3 xi = s.position_m[i];
-    const double ri = s.radius_m[i];
-    for_each_candidate(g, domain_, i, [&](std::uint32_t jj, const int* wrap) {
-      if (jj <= i || s.body[jj] == s.body[i]) return;
-      int sh[3] = {0, 0, 0};
-      Vec3 d = xi - s.position_m[jj];
-      for (int k = 0; k < 3; ++k)
-        if (domain_.periodic[k]) {
-          sh[k] = g.wrap_of[i][k] - g.wrap_of[jj][k] + wrap[k];
-          d[k] -= sh[k] * len[k];
+  // What the candidate scan reads, in cell order (contiguous loads while a row of cells is
+  // scanned).
+  scan_x_.resize(n);
+  scan_r_.resize(n);
+  scan_body_.resize(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    const std::uint32_t q = g.items[p];
+    scan_x_[p] = s.position_m[q];
+    scan_r_[p] = s.radius_m[q];
+    scan_body_[p] = s.body[q];
+  }
+  const bool periodic = domain_.any_periodic();
+
+  // Pass 1: the rows of each chunk of spheres into the chunk's buffer (kept from build to build:
+  // no allocation once the buffers have grown), each row sorted by j; row_len_ holds their sizes.
+  constexpr std::size_t kChunk = 256;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  if (chunk_rows_.size() < chunks) chunk_rows_.resize(chunks);
+  row_len_.resize(n);
+#pragma omp parallel for proc_bind(close) schedule(dynamic, 1) if (n >= kParallelThreshold)
+  for (std::size_t c = 0; c < chunks; ++c) {
+    auto& buf = chunk_rows_[c];
+    buf.clear();
+    const std::size_t i1 = std::min(n, (c + 1) * kChunk);
+    for (std::size_t i = c * kChunk; i < i1; ++i) {
+      const std::size_t row0 = buf.size();
+      const Vec3 xi = s.position_m[i];
+      const double ri = s.radius_m[i];
+      const std::uint32_t bi = s.body[i];
+      const auto ii = static_cast<std::uint32_t>(i);
+      for_each_cell_around(g, domain_, g.cell_of[i], [&](std::uint32_t lo, std::uint32_t hi, const int* wrap) {
+        for (std::uint32_t p = lo; p < hi; ++p) {
+          const std::uint32_t jj = g.items[p];
+          if (jj <= ii || scan_body_[p] == bi) continue;
+          int sh[3] = {0, 0, 0};
+          Vec3 d = xi - scan_x_[p];
+          if (periodic)
+            for (int k = 0; k < 3; ++k)
+              if (domain_.periodic[k]) {
+                sh[k] = g.wrap_of[i][k] - g.wrap_of[jj][k] + wrap[k];
+                d[k] -= sh[k] * len[k];
+              }
+          const double cut = ri + scan_r_[p] + skin_m_;
+          if (norm2(d) < cut * cut) buf.push_back({jj, pack_image(sh[0], sh[1], sh[2])});
         }
-      const double cut = ri + s.radius_m[jj] + skin_m_;
-      if (norm2(d) < cut * cut) row.emplace_back(jj, pack_image(sh[0], sh[1], sh[2]));
-    });
-    std::sort(row.begin(), row.end());
+      });
+      std::sort(buf.begin() + static_cast<std::ptrdiff_t>(row0), buf.end(),
+                [](const RowEntry& a, const RowEntry& b) { return a.j != b.j ? a.j < b.j : a.image < b.image; });
+      row_len_[i] = static_cast<std::uint32_t>(buf.size() - row0);
+    }
   }
 
   // Pass 2: CSR, carrying history over from the previous list (rows sorted by j: merge).
   std::vector<std::uint32_t> new_start(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) new_start[i + 1] = new_start[i] + static_cast<std::uint32_t>(rows[i].size());
+  for (std::size_t i = 0; i < n; ++i) new_start[i + 1] = new_start[i] + row_len_[i];
   const std::size_t m = new_start[n];
   std::vector<std::uint32_t> new_j(m);
   std::vector<std::int32_t> new_image(m);
@@ -173,19 +210,23 @@ void VerletList::build(const state::SphereStore& s) {
   // history carries over. Any other change of count goes through renumber() first.
   const std::size_t n_old = row_start.empty() ? 0 : row_start.size() - 1;
   const bool had_old = n_old > 0 && n_old <= n;
-#pragma omp parallel for proc_bind(close) schedule(dynamic, 256) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
-    const bool has_row = had_old && i < n_old;
-    std::size_t o = has_row ? row_start[i] : 0;
-    const std::size_t o_end = has_row ? row_start[i + 1] : 0;
-    for (std::size_t q = 0; q < rows[i].size(); ++q) {
-      const std::size_t k = new_start[i] + q;
-      new_j[k] = rows[i][q].first;
-      new_image[k] = rows[i][q].second;
-      while (o < o_end && j[o] < new_j[k]) ++o;
-      if (o < o_end && j[o] == new_j[k] && touching[o]) {
-        new_hist[k] = history[o];
-        new_touch[k] = 1;
+#pragma omp parallel for proc_bind(close) schedule(dynamic, 1) if (n >= kParallelThreshold)
+  for (std::size_t c = 0; c < chunks; ++c) {
+    const auto& buf = chunk_rows_[c];
+    std::size_t from = 0;
+    const std::size_t i1 = std::min(n, (c + 1) * kChunk);
+    for (std::size_t i = c * kChunk; i < i1; ++i) {
+      const bool has_row = had_old && i < n_old;
+      std::size_t o = has_row ? row_start[i] : 0;
+      const std::size_t o_end = has_row ? row_start[i + 1] : 0;
+      for (std::size_t k = new_start[i]; k < new_start[i + 1]; ++k, ++from) {
+        new_j[k] = buf[from].j;
+        new_image[k] = buf[from].image;
+        while (o < o_end && j[o] < new_j[k]) ++o;
+        if (o < o_end && j[o] == new_j[k] && touching[o]) {
+          new_hist[k] = history[o];
+          new_touch[k] = 1;
+        }
       }
     }
   }

@@ -84,6 +84,16 @@ class VerletList {
   double skin_m_ = 0.0;
   std::size_t builds_ = 0;
   std::vector<Vec3> built_at_;
+  // Scratch of build(), kept between builds so that a build allocates nothing once grown.
+  struct RowEntry {
+    std::uint32_t j;
+    std::int32_t image;
+  };
+  std::vector<std::vector<RowEntry>> chunk_rows_;
+  std::vector<std::uint32_t> row_len_;
+  std::vector<Vec3> scan_x_;
+  std::vector<double> scan_r_;
+  std::vector<std::uint32_t> scan_body_;
 };
 
 /// All pairs (i < j, different bodies) whose spheres overlap, by brute force: the reference for
