@@ -67,47 +67,69 @@ class LaneRows {
   LaneRows(const PairPassData& d, Evaluate evaluate) : d_(d), evaluate_(evaluate) { b_.data = &d; }
 
   std::size_t run(std::size_t i0, std::size_t i1) {
+    // Everything the staging loop reads is held in locals: the release of an ended contact
+    // stores bytes, which may alias any memory, so members would be reloaded on every entry.
     auto& L = *d_.list;
+    const std::uint32_t* const row_start = L.row_start.data();
+    const std::uint32_t* const jv = L.j.data();
+    const std::uint8_t* const was_touching = L.touching.data();
+    const Vec3* const pos = d_.position_m;
+    const double* const rad = d_.radius_m;
+    const auto* const mat = d_.material;
+    const contact::PairTable& pairs = *d_.pairs;
+    const bool periodic = d_.periodic;
+    using F = PairBatch;
+    double* const sx = b_.a[F::Dx];
+    double* const sy = b_.a[F::Dy];
+    double* const sz = b_.a[F::Dz];
+    double* const s2 = b_.a[F::Dist2];
+    std::uint32_t* const si = b_.i;
+    std::uint32_t* const sj = b_.j;
+    std::uint32_t* const sk = b_.k;
+    const contact::PairParams** const sp = b_.params;
     std::size_t contacts = 0;
+    int n = 0;
     for (std::size_t i = i0; i < i1; ++i) {
-      const Vec3 xi = d_.position_m[i];
-      const double ri = d_.radius_m[i];
+      const Vec3 xi = pos[i];
+      const double ri = rad[i];
+      const auto mi = mat[i];
       d_.force_n[i] = {};  // the batch's scatter adds the row's contacts in entry order
       d_.torque_n_m[i] = {};
-      for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
-        const std::uint32_t j = L.j[k];
-        Vec3 dij = xi - d_.position_m[j];
-        if (d_.periodic) dij -= L.shift(k);
-        const double rj = d_.radius_m[j];
-        const double dist2 = norm2(dij), rsum = ri + rj;
+      const std::uint32_t k1 = row_start[i + 1];
+      for (std::uint32_t k = row_start[i]; k < k1; ++k) {
+        const std::uint32_t j = jv[k];
+        Vec3 dij = xi - pos[j];
+        if (periodic) dij -= L.shift(k);
+        const double rsum = ri + rad[j];
+        const double dist2 = norm2(dij);
         // Without a branch on the distance test (about half the entries touch, so it would be
         // mispredicted often): every entry is written to the next slot, which only a touching
         // entry keeps.
         const bool touch = dist2 < rsum * rsum;
-        stage(static_cast<std::uint32_t>(i), j, k, dij, dist2);
-        b_.n += touch;
+        sx[n] = dij.x;
+        sy[n] = dij.y;
+        sz[n] = dij.z;
+        s2[n] = dist2;
+        si[n] = static_cast<std::uint32_t>(i);
+        sj[n] = j;
+        sk[n] = k;
+        sp[n] = &pairs(mi, mat[j]);
+        n += touch;
         contacts += touch;
-        if (static_cast<bool>(L.touching[k]) & !touch) release_entry(L, k);  // rare: a contact ended
-        if (b_.n == PairBatch::kCapacity) flush();
+        if (static_cast<bool>(was_touching[k]) & !touch) release_entry(L, k);  // rare: a contact ended
+        if (n == PairBatch::kCapacity) {
+          b_.n = n;
+          flush();
+          n = 0;
+        }
       }
     }
+    b_.n = n;
     flush();
     return contacts;
   }
 
  private:
-  void stage(std::uint32_t i, std::uint32_t j, std::uint32_t k, const Vec3& dij, double dist2) {
-    using F = PairBatch;
-    const int s = b_.n;
-    b_.a[F::Dx][s] = dij.x;
-    b_.a[F::Dy][s] = dij.y;
-    b_.a[F::Dz][s] = dij.z;
-    b_.a[F::Dist2][s] = dist2;
-    b_.i[s] = i;
-    b_.j[s] = j;
-    b_.k[s] = k;
-    b_.params[s] = &(*d_.pairs)(d_.material[i], d_.material[j]);
-  }
 
   void flush() {
     const int n = b_.n;
