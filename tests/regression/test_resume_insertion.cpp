@@ -127,22 +127,22 @@ void kill_and_resume(const std::string& case_file, const std::string& tag, const
 
 }  // namespace
 
-// 1000 beads in six waves 600 steps apart (waves at steps 0, 600, ..., 3000); checkpoints every
-// 200 steps, samples every 133. Killed in the first fall between checkpoints (SIGTERM 450),
-// right after a checkpoint that closes a fall (abort 601: resumes at 600, before wave 2), in the
-// third fall (abort 1500: resumes at 1400), on the last step of a fall (SIGTERM 2400) and on the
-// last step before the final wave (SIGTERM 3000: the sample right after insertion is off the
-// sampling cadence).
+// 1000 beads in four waves 600 steps apart (waves at steps 0, 600, 1200 and 1800: 893, 16, 58
+// and 33 beads); checkpoints every 200 steps, samples every 133. Killed in the first fall between
+// checkpoints (SIGTERM 450), right after a checkpoint that closes a fall (abort 601: resumes at
+// 600, before wave 2), in the third fall (abort 1500: resumes at 1400), on the last step of a
+// fall (SIGTERM 1200) and on the last step before the final wave (SIGTERM 1800: the sample right
+// after insertion is off the sampling cadence).
 TEST(ResumeInsertion, DrumKilledDuringInsertionResumesBitForBit) {
   kill_and_resume(kWaves, "ins_cpu", "cpu",
-                  {{false, 450, "insert"}, {true, 601, "insert"}, {true, 1500, "insert"}, {false, 2400, "insert"},
-                   {false, 3000, "insert"}});
+                  {{false, 450, "insert"}, {true, 601, "insert"}, {true, 1500, "insert"}, {false, 1200, "insert"},
+                   {false, 1800, "insert"}});
 }
 
 // The GPU engine's kernels on CPU threads: the device state is uploaded again after a resume
 // inside the insertion.
 TEST(ResumeInsertion, GpuEngineKilledDuringInsertionResumesBitForBit) {
-  kill_and_resume(kWaves, "ins_gpuemu", "gpu-emulated", {{true, 1500, "insert"}, {false, 3000, "insert"}});
+  kill_and_resume(kWaves, "ins_gpuemu", "gpu-emulated", {{true, 1500, "insert"}, {false, 1800, "insert"}});
 }
 
 // [heap] with 300 beads: two waves (steps 0 and 800), fill until at rest (to step ~6000), lift
