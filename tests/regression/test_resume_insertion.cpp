@@ -145,8 +145,8 @@ TEST(ResumeInsertion, GpuEngineKilledDuringInsertionResumesBitForBit) {
   kill_and_resume(kWaves, "ins_gpuemu", "gpu-emulated", {{true, 1500, "insert"}, {false, 1800, "insert"}});
 }
 
-// [heap] with 300 beads: two waves (steps 0 and 800), fill until at rest (to step ~6000), lift
-// (8000 steps), rest. Killed while pouring (abort 700, resumes at 400), while the poured beads
+// [heap] with 300 beads: three waves (steps 0, 800 and 1600), fill until at rest (to step
+// ~6000), lift (8000 steps), rest. Killed while pouring (abort 700, resumes at 400), while the poured beads
 // settle (SIGTERM 3000), while the cylinder is lifted (abort 9000, resumes at 8800) and while
 // the heap comes to rest (abort 16000), and on the last step (SIGTERM: the final sample is off
 // the sampling cadence; before checkpoint version 5 the resumed run lost it). A --resume of the
