@@ -16,6 +16,7 @@
 #include "case_file/derived_quantities.hpp"
 #include "contact/time_step.hpp"
 #include "core/quat.hpp"
+#include "neighbor/skin.hpp"
 #include "walls/wall_from_config.hpp"
 #include "walls/wall_geometry.hpp"
 
@@ -158,7 +159,7 @@ void CaseParser::check_periodic_cells() const {
     dmax = std::max(dmax, 2.0 * t.max_radius_m);
     rmin = std::min(rmin, t.min_radius_m);
   }
-  const double skin = cfg_.run.skin_m.value_or(0.5 * rmin);  // as resolved_skin_m(), without rebuilding templates
+  const double skin = cfg_.run.skin_m.value_or(neighbor::default_skin_m(rmin));  // as resolved_skin_m(), without rebuilding templates
   const double cell = dmax + skin;
   const std::string why = " (largest sphere diameter " + num(dmax) + " m + skin " + num(skin) + " m)";
   if (cfg_.drum && cfg_.drum->axial_boundary == config::AxialBoundary::Periodic && cfg_.drum->width_m < 3.0 * cell)

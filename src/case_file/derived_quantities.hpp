@@ -47,7 +47,8 @@ std::uint64_t implied_particle_count(const config::CaseConfig& c);
 /// smallest sphere radius of its shape after coarse graining. +infinity if there is none.
 double smallest_rayleigh_time_s(const config::CaseConfig& c);
 
-/// [run].skin_m, or its default: a quarter of the smallest sphere diameter in use (0 if none).
+/// [run].skin_m, or its default (neighbor::default_skin_m of the smallest sphere radius in use;
+/// 0 if none).
 double resolved_skin_m(const config::CaseConfig& c);
 
 }  // namespace biodem::case_file

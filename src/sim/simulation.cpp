@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "integrate/rigid_rotation.hpp"
+#include "neighbor/skin.hpp"
 
 namespace biodem::sim {
 
@@ -119,7 +120,7 @@ void Simulation::refresh() {
   if (skin_m_ < 0.0) {
     double rmin = 1e300;
     for (double r : spheres_.radius_m) rmin = std::min(rmin, r);
-    skin_m_ = spheres_.size() ? 0.5 * rmin : 1e-3;  // a quarter of the smallest diameter (case_file::resolved_skin_m)
+    skin_m_ = spheres_.size() ? neighbor::default_skin_m(rmin) : 1e-3;  // as case_file::resolved_skin_m
   }
   list_.configure(domain_, skin_m_);
   update_wall_motion(time_s_);
