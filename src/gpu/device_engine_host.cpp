@@ -30,9 +30,30 @@ struct System {
     else
       for (std::uint32_t i = 0; i < n; ++i) f(i);
   }
+  /// Doubles of device memory that sum_into needs (the result in the first).
+  static std::size_t sum_scratch(std::uint32_t) { return 1; }
+  /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the
+  /// order of the sequential reductions of exec(), so the emulated settle criterion sees the bits
+  /// the host-side reduction gave before it moved to the device.
+  template <class F>
+  static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt);
+  /// CUDA graphs do not exist here: the engine launches plainly.
+  struct Graphs {
+    template <class R>
+    bool run(std::uint64_t, R&) { return false; }
+    void clear() {}
+  };
 };
 }  // namespace biodem::gpu::host_threads
 #include "gpu/engine_impl.hpp"
+
+namespace biodem::gpu::host_threads {
+template <class F>
+void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
+  const SequentialSum<F> sum{f, n, out, halt};
+  sum(0);
+}
+}  // namespace biodem::gpu::host_threads
 
 namespace biodem::gpu::host_threads {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
