@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -184,6 +185,67 @@ class Graphs {
   std::map<std::uint64_t, cudaGraphExec_t> cache_;
 };
 
+/// download()'s copies as one batch: asynchronous copies on the engine's stream into one pinned
+/// (page-locked) host buffer, kept between downloads and enlarged when needed, then one wait;
+/// the engine takes the arrays from it. If pinned memory cannot be had, a pageable buffer (the
+/// copies are then staged by the driver, as plain copies are).
+class Staging {
+ public:
+  Staging() = default;
+  Staging(const Staging&) = delete;
+  Staging& operator=(const Staging&) = delete;
+  ~Staging() { release(); }
+  std::size_t add(const void* src, std::size_t bytes) {
+    items_.push_back({src, bytes, used_});
+    used_ += (bytes + 255) / 256 * 256;
+    return items_.size() - 1;
+  }
+  void run() {
+    if (used_ > capacity_) {
+      release();
+      const std::size_t want = used_ + used_ / 4;
+      void* p = nullptr;
+      if (cudaHostAlloc(&p, want, cudaHostAllocDefault) == cudaSuccess) {
+        pinned_ = static_cast<char*>(p);
+      } else {
+        (void)cudaGetLastError();
+        pageable_.resize(want);
+      }
+      capacity_ = want;
+    }
+    char* base = pinned_ ? pinned_ : pageable_.data();
+    for (const Item& it : items_)
+      if (it.bytes) {
+        const cudaError_t e = cudaMemcpyAsync(base + it.offset, it.src, it.bytes, cudaMemcpyDeviceToHost, engine_stream());
+        if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+      }
+    const cudaError_t e = cudaStreamSynchronize(engine_stream());
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+  }
+  const void* host(std::size_t item) const { return (pinned_ ? pinned_ : pageable_.data()) + items_[item].offset; }
+  void clear() {
+    items_.clear();
+    used_ = 0;
+  }
+
+ private:
+  struct Item {
+    const void* src;
+    std::size_t bytes, offset;
+  };
+  void release() {
+    if (pinned_) (void)cudaFreeHost(pinned_);  // errors ignored: the context may be gone
+    pinned_ = nullptr;
+    pageable_.clear();
+    pageable_.shrink_to_fit();
+    capacity_ = 0;
+  }
+  std::vector<Item> items_;
+  std::size_t used_ = 0, capacity_ = 0;
+  char* pinned_ = nullptr;
+  std::vector<char> pageable_;
+};
+
 struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
@@ -208,6 +270,7 @@ struct System {
     check_cuda("a kinetic energy sum");
   }
   using Graphs = cuda_device::Graphs;
+  using Staging = cuda_device::Staging;
 };
 
 }  // namespace biodem::gpu::cuda_device

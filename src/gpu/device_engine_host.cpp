@@ -7,8 +7,10 @@
 #include <thrust/system/omp/execution_policy.h>
 #include <thrust/system/omp/vector.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "core/parallel.hpp"
 
@@ -37,6 +39,20 @@ struct System {
   /// the host-side reduction gave before it moved to the device.
   template <class F>
   static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt);
+  /// download()'s batch of copies: here the device arrays are host memory, read in place.
+  class Staging {
+   public:
+    std::size_t add(const void* src, std::size_t) {
+      src_.push_back(src);
+      return src_.size() - 1;
+    }
+    void run() {}
+    const void* host(std::size_t item) const { return src_[item]; }
+    void clear() { src_.clear(); }
+
+   private:
+    std::vector<const void*> src_;
+  };
   /// CUDA graphs do not exist here: the engine launches plainly.
   struct Graphs {
     template <class R>

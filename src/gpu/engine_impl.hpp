@@ -17,8 +17,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/error.hpp"
@@ -189,6 +191,7 @@ class Engine final : public DeviceEngine {
   SettleCriterion criterion_;
   SettleState settle_host_;  // as last read from the device
   typename System::Graphs graphs_;
+  typename System::Staging staging_;  // download()'s copies
 
  public:
   void set_check_every(std::uint32_t k) override {
@@ -506,6 +509,7 @@ inline void Engine::poll_settle() {
 
 inline void Engine::begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) {
   invalidate_graphs();
+  if (ke_sum_.size() < System::sum_scratch(nb())) ke_sum_.assign(System::sum_scratch(nb()), 0.0);
   criterion_ = c;
   settle_active_ = true;
   settle_host_ = SettleState{phase_step, below, 0u};
@@ -625,30 +629,66 @@ inline double Engine::translational_kinetic_energy_j() {
 }
 
 inline void Engine::download(bool history) {
+  // Every array in one batch of copies with one wait (on CUDA: into pinned host memory,
+  // System::Staging), then into the host's arrays.
+  auto& st = staging_;
+  st.clear();
+  auto add = [&st](auto& d) {
+    using T = typename std::decay_t<decltype(d)>::value_type;
+    return st.add(thrust::raw_pointer_cast(d.data()), d.size() * sizeof(T));
+  };
+  auto take = [&st](auto& h, std::size_t item, std::size_t n) {
+    h.resize(n);
+    if (n) std::memcpy(static_cast<void*>(h.data()), st.host(item), n * sizeof(h[0]));
+  };
+  const std::size_t n_b = nb(), n = ns();
+  const std::size_t i_pos = add(b_pos_), i_vel = add(b_vel_), i_omega = add(b_omega_), i_l = add(b_l_), i_q = add(b_q_),
+                    i_force = add(b_force_), i_torque = add(b_torque_), i_sforce = add(s_force_),
+                    i_storque = add(s_torque_), i_contacts = add(s_contacts_);
+  std::size_t i_rj = 0, i_rlen = 0, i_rt = 0, i_rh = 0, i_wh = 0, i_wt = 0;
+  if (history) {
+    i_rj = add(rows_.j);
+    i_rlen = add(rows_.length);
+    i_rt = add(rows_.touching);
+    i_rh = add(rows_.history);
+    i_wh = add(wall_history_);
+    i_wt = add(wall_touching_);
+  }
+  st.run();
   auto& b = host_.bodies_mut();
-  to_host(b.position_m, b_pos_);
-  to_host(b.velocity_m_s, b_vel_);
-  to_host(b.angular_velocity_rad_s, b_omega_);
-  to_host(b.angular_momentum_kg_m2_s, b_l_);
-  to_host(b.orientation, b_q_);
-  to_host(b.force_n, b_force_);
-  to_host(b.torque_n_m, b_torque_);
+  take(b.position_m, i_pos, n_b);
+  take(b.velocity_m_s, i_vel, n_b);
+  take(b.angular_velocity_rad_s, i_omega, n_b);
+  take(b.angular_momentum_kg_m2_s, i_l, n_b);
+  take(b.orientation, i_q, n_b);
+  take(b.force_n, i_force, n_b);
+  take(b.torque_n_m, i_torque, n_b);
   host_.mark_spheres_stale();
   auto& s = host_.spheres_mut();  // positions and velocities recomputed from the bodies (same formula)
-  to_host(s.force_n, s_force_);
-  to_host(s.torque_n_m, s_torque_);
-  host_.set_contact_count(thrust::reduce(exec(), s_contacts_.begin(), s_contacts_.end(), std::size_t{0}));
+  take(s.force_n, i_sforce, n);
+  take(s.torque_n_m, i_storque, n);
+  {
+    std::vector<std::uint32_t> contacts;
+    take(contacts, i_contacts, n);
+    std::size_t total = 0;
+    for (std::uint32_t c : contacts) total += c;
+    host_.set_contact_count(total);
+  }
   if (!history) return;
 
   // A fresh host list from the current positions, with the device's pair and wall history.
-  const std::size_t n = ns();
   std::vector<std::uint32_t> rj, rlen;
   std::vector<std::uint8_t> rt;
   std::vector<contact::ContactHistory> rh;
-  to_host(rj, rows_.j);
-  to_host(rlen, rows_.length);
-  to_host(rt, rows_.touching);
-  to_host(rh, rows_.history);
+  take(rj, i_rj, rows_.j.size());
+  take(rlen, i_rlen, rows_.length.size());
+  take(rt, i_rt, rows_.touching.size());
+  take(rh, i_rh, rows_.history.size());
+  std::vector<contact::ContactHistory> wh;
+  std::vector<std::uint8_t> wt;
+  take(wh, i_wh, wall_history_.size());
+  take(wt, i_wt, wall_touching_.size());
+  st.clear();
   auto& L = host_.neighbor_list_mut();
   L.configure(domain_, skin_);
   L.build(s);
@@ -680,10 +720,6 @@ inline void Engine::download(bool history) {
     throw Error("internal: " + std::to_string(touching - found) +
                 " touching pairs of the device list are missing from the host list");
   // Wall contacts: the touching ones with their history; the host adds the other candidates.
-  std::vector<contact::ContactHistory> wh;
-  std::vector<std::uint8_t> wt;
-  to_host(wh, wall_history_);
-  to_host(wt, wall_touching_);
   sim::WallContacts wc;
   wc.start.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
