@@ -496,9 +496,11 @@ inline void Engine::run_units(std::uint32_t units) {
   };
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
+  // Longer runs between checks (set_check_every above 64) are launched plainly.
+  constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 2) |
                             (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
-  if (!graphs_.run(key, record)) record();
+  if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
 }
 
 inline void Engine::poll_settle() {
