@@ -12,6 +12,9 @@
 #   3. two identical runs of a cohesive needle drum, compared byte for byte (series, trace,
 #      snapshots, checkpoint), and (3b) the same run with every loop on two threads
 #      (BIODEM_TEST_PARALLEL_THRESHOLD=0 --threads 2) compared with them;
+#      (3c) the same run with plain kernel launches instead of CUDA graphs (BIODEM_GPU_GRAPH=0),
+#      and (3d) a drum whose settle phase ends on the criterion evaluated on the device, with
+#      and without graphs;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -163,6 +166,21 @@ expect_same "3. two identical runs" "$([ $sa -eq 0 ] && [ $sb -eq 0 ] && echo 1)
 BIODEM_TEST_PARALLEL_THRESHOLD=0 THREADS=2 run_biodem needles_par "$needles" "$OUT/needles_par" --device "$DEVICE"; sp=$?
 expect_same "3b. same run, every loop on 2 threads" "$([ $sp -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
   "a run failed (logs/needles_par.txt)" "$OUT/needles_a" "$OUT/needles_par" "byte-identical to the 1-thread run"
+
+# 3c. The launches between list checks as plain kernels instead of CUDA graphs
+# (BIODEM_GPU_GRAPH=0): the same kernels in the same order, so the same bytes; and the same pair
+# on a case whose settle phase ends on the kinetic energy criterion evaluated on the device.
+# Emulated there are no graphs and both runs launch plainly.
+BIODEM_GPU_GRAPH=0 run_biodem needles_plain "$needles" "$OUT/needles_plain" --device "$DEVICE"; sg=$?
+expect_same "3c. same run without CUDA graphs" "$([ $sg -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
+  "a run failed (logs/needles_plain.txt)" "$OUT/needles_a" "$OUT/needles_plain" "byte-identical to the run with graphs"
+settle=tests/cases/biomass_9_6_quick.toml
+run_biodem settle_graph "$settle" "$OUT/settle_graph" --device "$DEVICE"; sc=$?
+BIODEM_GPU_GRAPH=0 run_biodem settle_plain "$settle" "$OUT/settle_plain" --device "$DEVICE"; sd=$?
+settle_end=$(grep -o "phase 'settle' ends at t = [^;]*" "$OUT/settle_graph/run.log" 2>/dev/null | head -n 1)
+expect_same "3d. settle criterion on the device, with and without CUDA graphs" \
+  "$([ $sc -eq 0 ] && [ $sd -eq 0 ] && echo 1)" "a run failed (logs/settle_graph.txt, settle_plain.txt)" \
+  "$OUT/settle_graph" "$OUT/settle_plain" "byte-identical; $settle_end"
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
 "$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?

@@ -57,6 +57,42 @@ std::vector<PhasePlan> plan_phases(const config::CaseConfig& c) {
   return out;
 }
 
+void Runner::run_phase_on_device(const PhasePlan& p, std::uint64_t max_steps, std::uint64_t& k, std::uint64_t& below,
+                                 bool& settled) {
+  // The device evaluates the settle criterion itself after every step (the same rule and
+  // arithmetic as the loop of run_phase on the kinetic energy it sums) and makes no further
+  // moves once it is met, so the host waits for it only at list checks and at the end of each run
+  // of steps, and the phase ends at the step it would end at one step at a time.
+  if (p.criterion && !settled)
+    dev_->begin_settle({p.ke_threshold_j, p.translational, p.min_steps, p.hold_steps}, k, below);
+  while (!settled && k < max_steps) {
+    const std::uint64_t n0 = sim_.step_count();
+    const double t0 = sim_.time_s();
+    const gpu::DeviceEngine::Advanced a = dev_->advance(device_run_length(max_steps - k));
+    device_current_ = true;
+    if (p.criterion) {
+      below = a.below;
+      settled = a.settled;
+    }
+    if (a.steps == 0) break;  // (not expected: the criterion was not met before the run)
+    // after_step for each step made, with the clock at that step (the same additions as a step at
+    // a time); only the last one may use the state (device_run_length).
+    sim_.set_step_count(n0);
+    sim_.set_time_s(t0);
+    for (std::uint64_t j = 1; j <= a.steps; ++j) {
+      sim_.set_time_s(sim_.time_s() + sim_.dt_s());
+      sim_.set_step_count(sim_.step_count() + 1);
+      ++k;
+      phase_step_ = k;
+      settle_counter_ = below;  // the counter after the run's last step: checkpoints are written only there
+      defer_stop_ = j < a.steps;
+      after_step();
+    }
+    defer_stop_ = false;
+  }
+  if (p.criterion) dev_->end_settle();
+}
+
 void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below) {
   current_phase_ = p.name;
   phase_index_ = index;
@@ -99,7 +135,8 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   const double cpu0 = process_cpu_s();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
-  while (!settled && k < max_steps) {
+  if (dev_) run_phase_on_device(p, max_steps, k, below, settled);
+  while (!dev_ && !settled && k < max_steps) {
     advance();
     ++k;
     if (p.criterion) {

@@ -83,6 +83,25 @@ void Runner::advance() {
   device_current_ = true;
 }
 
+/// Steps at most in one DeviceEngine::advance call: the progress bar and a signal wait at most
+/// this long (milliseconds on a GPU).
+constexpr std::uint64_t kDeviceRun = 200;
+
+bool Runner::host_needs_state_at(std::uint64_t n) const {
+  return n % sample_every_ == 0 || (snapshot_every_ && n % snapshot_every_ == 0) ||
+         (frame_every_ && n % frame_every_ == 0) || (checkpoint_every_ && n % checkpoint_every_ == 0) ||
+         (abort_at_step() && n == abort_at_step()) || (signal_at_step() && n == signal_at_step());
+}
+
+std::uint64_t Runner::device_run_length(std::uint64_t limit) const {
+  const std::uint64_t m = std::min(limit, kDeviceRun);
+  if (g_stop_signal) return std::min<std::uint64_t>(m, 1);
+  const std::uint64_t n0 = sim_.step_count();
+  for (std::uint64_t j = 1; j < m; ++j)
+    if (host_needs_state_at(n0 + j)) return j;
+  return m;
+}
+
 void Runner::sync(bool history) {
   if (!dev_ || !device_current_) return;
   if (synced_step_ == sim_.step_count() && (synced_history_ || !history)) return;
@@ -131,7 +150,7 @@ void Runner::after_step() {
   if ((n & 63) == 0) report_progress(current_phase_);
   if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
   if (signal_at_step() && n == signal_at_step()) std::raise(SIGTERM);
-  if (g_stop_signal) stop_on_signal();
+  if (g_stop_signal && !defer_stop_) stop_on_signal();
 }
 
 void Runner::stop_on_signal() {

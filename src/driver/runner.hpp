@@ -77,6 +77,16 @@ class Runner {
   [[noreturn]] void stop_on_signal();
   /// One time step on the selected engine.
   void advance();
+  /// GPU engine: the number of steps, at most `limit`, that the device may make in one
+  /// DeviceEngine::advance call: it ends at the first step whose after_step uses the state
+  /// (sample, snapshot, frame, checkpoint, the test hooks), after at most kDeviceRun steps.
+  std::uint64_t device_run_length(std::uint64_t limit) const;
+  /// Whether after_step at step n uses the state (the host must be current then).
+  bool host_needs_state_at(std::uint64_t n) const;
+  /// One phase's steps on the GPU engine: runs of steps on the device, then after_step for each
+  /// step made, with the host clock at that step (phases.cpp).
+  void run_phase_on_device(const PhasePlan& p, std::uint64_t max_steps, std::uint64_t& k, std::uint64_t& below,
+                           bool& settled);
   /// GPU engine: brings the host Simulation up to date (with the contact history when `history`).
   void sync(bool history);
   double kinetic_energy_j();
@@ -114,6 +124,7 @@ class Runner {
   bool synced_history_ = false;
   bool device_current_ = false;  // the device holds the run's state (host may lag behind)
   bool last_settled_ = false;
+  bool defer_stop_ = false;  // after_step of a step the device has already gone past: a signal waits for the run's last step
   checkpoint::InsertionProgress insertion_;  // while inserting: what a checkpoint must carry
 };
 

@@ -45,6 +45,29 @@ class DeviceEngine {
   virtual void download(bool history) = 0;
   /// One velocity-Verlet step on the device; advances the host's clock (time and step count).
   virtual void step() = 0;
+  /// Up to `max_steps` velocity-Verlet steps on the device without a host wait between list
+  /// checks (on CUDA: the steps between two checks as one CUDA graph, docs/gpu.md). With a settle
+  /// criterion begun (begin_settle), the device evaluates it after every step and the steps after
+  /// the one that meets it do nothing; the host learns it at the next list check or at the end.
+  /// Returns the steps made (fewer than `max_steps` only when the criterion was met) and leaves
+  /// the host's clock after them, as that many calls of step() would.
+  struct Advanced {
+    std::uint64_t steps = 0;
+    std::uint64_t below = 0;  // settle criterion: consecutive steps below the threshold so far
+    bool settled = false;     // the criterion was met at the last step made
+  };
+  virtual Advanced advance(std::uint64_t max_steps) = 0;
+  /// The settle criterion of a phase (the run driver's rule, SPEC 5): after step k of the phase,
+  /// below = (mean kinetic energy per body < threshold) ? below + 1 : 0; settled when
+  /// k >= min_steps and below >= hold_steps. Evaluated on the device by advance() from phase step
+  /// `phase_step` with counter `below` (both from a checkpoint when resumed) until end_settle().
+  struct SettleCriterion {
+    double threshold_j = 0.0;   // mean kinetic energy per body
+    bool translational = false; // m v^2 / 2 only
+    std::uint64_t min_steps = 0, hold_steps = 1;
+  };
+  virtual void begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) = 0;
+  virtual void end_settle() = 0;
   /// Total kinetic energy of all bodies (one device reduction).
   virtual double kinetic_energy_j() = 0;
   virtual double translational_kinetic_energy_j() = 0;  // sum of m v^2 / 2

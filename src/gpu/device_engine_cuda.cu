@@ -8,10 +8,13 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <exception>
 #include <iostream>
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 
@@ -70,17 +73,204 @@ inline void check_cuda(const char* where) {
   if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error after ") + where + ": " + cudaGetErrorString(e));
 }
 
+/// The stream of every kernel, Thrust algorithm and graph of the engine: created once, blocking
+/// (cudaStreamDefault), so the copies that Thrust's vectors make on the legacy default stream
+/// stay ordered with it; a non-default stream because CUDA graphs cannot be captured on the
+/// legacy one. If it cannot be created, the legacy stream (graphs then fail to capture and the
+/// engine launches plainly).
+inline cudaStream_t engine_stream() {
+  static const cudaStream_t s = [] {
+    cudaStream_t x = nullptr;
+    if (cudaStreamCreateWithFlags(&x, cudaStreamDefault) != cudaSuccess) {
+      (void)cudaGetLastError();
+      x = nullptr;
+    }
+    return x;
+  }();
+  return s;
+}
+
+/// Block sums of a fixed-shape tree (deterministic: the order depends only on n).
+inline constexpr std::uint32_t kSumBlock = 256;
+
+template <class F>
+__global__ void block_sums(std::uint32_t n, F f, double* partial, const std::uint32_t* halt) {
+  __shared__ double buf[kSumBlock];
+  if (halt && *halt) return;  // the same for every thread of the block
+  const std::uint32_t i = blockIdx.x * kSumBlock + threadIdx.x;
+  buf[threadIdx.x] = i < n ? f(i) : 0.0;
+  __syncthreads();
+  for (std::uint32_t w = kSumBlock / 2; w > 0; w >>= 1) {
+    if (threadIdx.x < w) buf[threadIdx.x] = buf[threadIdx.x] + buf[threadIdx.x + w];
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) partial[blockIdx.x] = buf[0];
+}
+
+/// The block sums in block order, by one thread, into out[0].
+__global__ void sum_blocks(std::uint32_t blocks, const double* partial, double* out, const std::uint32_t* halt) {
+  if (halt && *halt) return;
+  double r = 0.0;
+  for (std::uint32_t b = 0; b < blocks; ++b) r = r + partial[b];
+  out[0] = r;
+}
+
+/// CUDA graphs of the launches between two list checks (Engine::run_units), one per key, built
+/// at first use by stream capture and replayed with one cudaGraphLaunch. The engine forgets them
+/// (clear) whenever a kernel argument changes. BIODEM_GPU_GRAPH=0 turns them off; a capture or
+/// instantiation that fails turns them off for the rest of the run, with one line on stderr, and
+/// the launches then go plainly (the same kernels in the same order, so the same results).
+class Graphs {
+ public:
+  Graphs() {
+    const char* v = std::getenv("BIODEM_GPU_GRAPH");
+    enabled_ = !(v && std::string(v) == "0");
+  }
+  Graphs(const Graphs&) = delete;
+  Graphs& operator=(const Graphs&) = delete;
+  ~Graphs() { clear(); }
+  void clear() {
+    for (auto& [key, exec] : cache_) (void)cudaGraphExecDestroy(exec);  // errors ignored: the context may be gone
+    cache_.clear();
+  }
+  /// Replays the graph of `key`, capturing `record` (which only launches kernels on
+  /// engine_stream()) first if needed. False when graphs are off: the caller launches plainly.
+  template <class R>
+  bool run(std::uint64_t key, R& record) {
+    if (!enabled_) return false;
+    auto it = cache_.find(key);
+    if (it == cache_.end()) {
+      if (cache_.size() >= 64) clear();
+      cudaGraphExec_t exec = capture(record);
+      if (!exec) return false;
+      it = cache_.emplace(key, exec).first;
+    }
+    const cudaError_t e = cudaGraphLaunch(it->second, engine_stream());
+    if (e != cudaSuccess)
+      throw Error(std::string("GPU engine: CUDA error at a graph launch: ") + cudaGetErrorString(e));
+    return true;
+  }
+
+ private:
+  template <class R>
+  cudaGraphExec_t capture(R& record) {
+    const cudaStream_t s = engine_stream();
+    std::string why;
+    cudaGraph_t graph = nullptr;
+    cudaGraphExec_t exec = nullptr;
+    cudaError_t e = s ? cudaStreamBeginCapture(s, cudaStreamCaptureModeThreadLocal) : cudaErrorInvalidResourceHandle;
+    if (e == cudaSuccess) {
+      try {
+        record();
+      } catch (const std::exception& x) {
+        why = x.what();
+      }
+      e = cudaStreamEndCapture(s, &graph);  // ends the capture whatever happened inside it
+    }
+    if (e == cudaSuccess && why.empty()) e = cudaGraphInstantiate(&exec, graph, 0);
+    if (graph) (void)cudaGraphDestroy(graph);
+    if (e != cudaSuccess || !why.empty() || !exec) {
+      if (why.empty()) why = cudaGetErrorString(e);
+      (void)cudaGetLastError();  // capture errors are not sticky: clear it and go on plainly
+      if (exec) (void)cudaGraphExecDestroy(exec);
+      enabled_ = false;
+      std::cerr << "biodem: GPU engine: CUDA graph capture failed (" << why
+                << "); launching the kernels plainly for the rest of the run\n";
+      return nullptr;
+    }
+    return exec;
+  }
+
+  bool enabled_ = true;
+  std::map<std::uint64_t, cudaGraphExec_t> cache_;
+};
+
+/// download()'s copies as one batch: asynchronous copies on the engine's stream into one pinned
+/// (page-locked) host buffer, kept between downloads and enlarged when needed, then one wait;
+/// the engine takes the arrays from it. If pinned memory cannot be had, a pageable buffer (the
+/// copies are then staged by the driver, as plain copies are).
+class Staging {
+ public:
+  Staging() = default;
+  Staging(const Staging&) = delete;
+  Staging& operator=(const Staging&) = delete;
+  ~Staging() { release(); }
+  std::size_t add(const void* src, std::size_t bytes) {
+    items_.push_back({src, bytes, used_});
+    used_ += (bytes + 255) / 256 * 256;
+    return items_.size() - 1;
+  }
+  void run() {
+    if (used_ > capacity_) {
+      release();
+      const std::size_t want = used_ + used_ / 4;
+      void* p = nullptr;
+      if (cudaHostAlloc(&p, want, cudaHostAllocDefault) == cudaSuccess) {
+        pinned_ = static_cast<char*>(p);
+      } else {
+        (void)cudaGetLastError();
+        pageable_.resize(want);
+      }
+      capacity_ = want;
+    }
+    char* base = pinned_ ? pinned_ : pageable_.data();
+    for (const Item& it : items_)
+      if (it.bytes) {
+        const cudaError_t e = cudaMemcpyAsync(base + it.offset, it.src, it.bytes, cudaMemcpyDeviceToHost, engine_stream());
+        if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+      }
+    const cudaError_t e = cudaStreamSynchronize(engine_stream());
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+  }
+  const void* host(std::size_t item) const { return (pinned_ ? pinned_ : pageable_.data()) + items_[item].offset; }
+  void clear() {
+    items_.clear();
+    used_ = 0;
+  }
+
+ private:
+  struct Item {
+    const void* src;
+    std::size_t bytes, offset;
+  };
+  void release() {
+    if (pinned_) (void)cudaFreeHost(pinned_);  // errors ignored: the context may be gone
+    pinned_ = nullptr;
+    pageable_.clear();
+    pageable_.shrink_to_fit();
+    capacity_ = 0;
+  }
+  std::vector<Item> items_;
+  std::size_t used_ = 0, capacity_ = 0;
+  char* pinned_ = nullptr;
+  std::vector<char> pageable_;
+};
+
 struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
-  static auto exec() { return thrust::cuda::par(temporary_storage()); }
+  static auto exec() { return thrust::cuda::par(temporary_storage()).on(engine_stream()); }
   /// One thread per index, 128 per block (the force kernel uses ~96 registers); no host wait.
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     constexpr std::uint32_t kBlock = 128;
-    for_each_index<<<(n + kBlock - 1) / kBlock, kBlock>>>(n, f);
+    for_each_index<<<(n + kBlock - 1) / kBlock, kBlock, 0, engine_stream()>>>(n, f);
     check_cuda("a kernel launch");
   }
+  /// Doubles of device memory that sum_into needs: the result, then one per block.
+  static std::size_t sum_scratch(std::uint32_t n) { return 1 + (n + kSumBlock - 1) / kSumBlock; }
+  /// out[0] = the sum of f(i) over i < n, left in device memory (no host wait): block sums of a
+  /// fixed tree, then the block sums in order (deterministic on one device and build; not
+  /// Thrust's order). `out` has sum_scratch(n) doubles.
+  template <class F>
+  static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
+    const std::uint32_t blocks = (n + kSumBlock - 1) / kSumBlock;
+    if (blocks) block_sums<<<blocks, kSumBlock, 0, engine_stream()>>>(n, f, out + 1, halt);
+    sum_blocks<<<1, 1, 0, engine_stream()>>>(blocks, out + 1, out, halt);
+    check_cuda("a kinetic energy sum");
+  }
+  using Graphs = cuda_device::Graphs;
+  using Staging = cuda_device::Staging;
 };
 
 }  // namespace biodem::gpu::cuda_device

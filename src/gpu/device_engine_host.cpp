@@ -7,8 +7,10 @@
 #include <thrust/system/omp/execution_policy.h>
 #include <thrust/system/omp/vector.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "core/parallel.hpp"
 
@@ -30,9 +32,44 @@ struct System {
     else
       for (std::uint32_t i = 0; i < n; ++i) f(i);
   }
+  /// Doubles of device memory that sum_into needs (the result in the first).
+  static std::size_t sum_scratch(std::uint32_t) { return 1; }
+  /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the
+  /// order of the sequential reductions of exec(), so the emulated settle criterion sees the bits
+  /// the host-side reduction gave before it moved to the device.
+  template <class F>
+  static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt);
+  /// download()'s batch of copies: here the device arrays are host memory, read in place.
+  class Staging {
+   public:
+    std::size_t add(const void* src, std::size_t) {
+      src_.push_back(src);
+      return src_.size() - 1;
+    }
+    void run() {}
+    const void* host(std::size_t item) const { return src_[item]; }
+    void clear() { src_.clear(); }
+
+   private:
+    std::vector<const void*> src_;
+  };
+  /// CUDA graphs do not exist here: the engine launches plainly.
+  struct Graphs {
+    template <class R>
+    bool run(std::uint64_t, R&) { return false; }
+    void clear() {}
+  };
 };
 }  // namespace biodem::gpu::host_threads
 #include "gpu/engine_impl.hpp"
+
+namespace biodem::gpu::host_threads {
+template <class F>
+void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
+  const SequentialSum<F> sum{f, n, out, halt};
+  sum(0);
+}
+}  // namespace biodem::gpu::host_threads
 
 namespace biodem::gpu::host_threads {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {

@@ -17,8 +17,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "core/error.hpp"
@@ -80,7 +82,10 @@ class Engine final : public DeviceEngine {
 
   void upload() override;
   void download(bool history) override;
-  void step() override;
+  void step() override { advance(1); }
+  Advanced advance(std::uint64_t max_steps) override;
+  void begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) override;
+  void end_settle() override;
   double kinetic_energy_j() override;
   double translational_kinetic_energy_j() override;
   void sync_walls() override;
@@ -104,8 +109,10 @@ class Engine final : public DeviceEngine {
     vec<contact::ContactHistory> history;
     vec<std::uint32_t> length;
     std::uint32_t cap = 0;
-    void resize(std::size_t n, std::uint32_t c) {
+    std::uint64_t generation = 0;  // changes whenever the buffers are reallocated (CUDA graphs hold their addresses)
+    void resize(std::size_t n, std::uint32_t c, std::uint64_t gen) {
       cap = c;
+      generation = gen;
       j.assign(n * c, 0u);
       image.assign(n * c, 0);
       touching.assign(n * c, 0);
@@ -119,7 +126,20 @@ class Engine final : public DeviceEngine {
   };
 
   void build_list();
-  void compute_forces();
+  /// Contact forces of every sphere; `halt` as the step kernels (null: always evaluated).
+  void compute_forces(const std::uint32_t* halt);
+  /// The two halves of a step around the list check: kick, drift and sphere update; then forces,
+  /// body sums with the second half kick and, in a criterion phase, the settle update.
+  void first_half();
+  void second_half();
+  /// `units` times (second half of a step, first half of the next): the launches between two
+  /// list checks, with no host wait (on CUDA: replayed as one CUDA graph when it can).
+  void run_units(std::uint32_t units);
+  /// Reads the device's settle state into settle_host_ (one small copy; waits for the device).
+  void poll_settle();
+  const std::uint32_t* halt() { return &raw<SettleState>(settle_)->settled; }
+  /// Forgets the CUDA graphs (their kernels' arguments changed: buffers, walls, criterion).
+  void invalidate_graphs() { graphs_.clear(); }
   void check_finite();
   std::uint32_t nb() const { return static_cast<std::uint32_t>(b_mass_.size()); }
   std::uint32_t ns() const { return static_cast<std::uint32_t>(s_radius_.size()); }
@@ -163,6 +183,15 @@ class Engine final : public DeviceEngine {
   std::uint64_t builds_ = 0;
   std::uint64_t widenings_ = 0;  // list builds redone with wider rows
   std::uint32_t check_every_ = 10, steps_until_check_ = 1;
+  std::uint64_t generation_ = 0;  // source of Rows::generation
+  // Settle criterion evaluated on the device (begin_settle ... end_settle).
+  vec<SettleState> settle_{1};
+  vec<double> ke_sum_;  // the kinetic energy of the last step, then System's scratch
+  bool settle_active_ = false;
+  SettleCriterion criterion_;
+  SettleState settle_host_;  // as last read from the device
+  typename System::Graphs graphs_;
+  typename System::Staging staging_;  // download()'s copies
 
  public:
   void set_check_every(std::uint32_t k) override {
@@ -172,6 +201,7 @@ class Engine final : public DeviceEngine {
 };
 
 inline void Engine::sync_walls() {
+  invalidate_graphs();
   const auto& w = host_.walls();
   std::vector<DeviceWall> dw(w.size());
   for (std::size_t k = 0; k < w.size(); ++k) dw[k] = {w[k].geometry, w[k].material};
@@ -179,6 +209,7 @@ inline void Engine::sync_walls() {
 }
 
 inline void Engine::upload() {
+  invalidate_graphs();
   const auto& pt = host_.pair_table();
   if (host_.walls().size() > kMaxDeviceWalls)
     throw Error("--device gpu: the scene has " + std::to_string(host_.walls().size()) +
@@ -283,6 +314,7 @@ inline void Engine::upload() {
     }
     // Held as the current rows: build_list() makes them the old rows it carries history from.
     rows_.cap = static_cast<std::uint32_t>(cap);
+    rows_.generation = ++generation_;
     to_device(rows_.j, j);
     to_device(rows_.length, len);
     to_device(rows_.touching, touch);
@@ -316,7 +348,7 @@ inline void Engine::upload() {
     const auto touch = rows_.touching;
     const auto whist = wall_history_;
     const auto wtouch = wall_touching_;
-    compute_forces();
+    compute_forces(nullptr);
     // Keep the history of pairs that were touching before; new contacts start from zero. On the
     // device, without a round trip through the host.
     launch(static_cast<std::uint32_t>(rows_.history.size()),
@@ -325,7 +357,11 @@ inline void Engine::upload() {
     launch(static_cast<std::uint32_t>(wall_history_.size()),
            KeepSetupHistory{raw<contact::ContactHistory>(wall_history_), thrust::raw_pointer_cast(whist.data()),
                             raw<std::uint8_t>(wall_touching_), thrust::raw_pointer_cast(wtouch.data())});
-    launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false});
+    launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false, nullptr});
+  }
+  ke_sum_.assign(System::sum_scratch(nb()), 0.0);
+  if (settle_active_) {  // (not expected: the run driver uploads outside criterion phases)
+    settle_[0] = settle_host_;
   }
 }
 
@@ -396,7 +432,7 @@ inline void Engine::build_list() {
   std::swap(rows_, old_rows_);
   std::uint32_t cap = std::max<std::uint32_t>(rows_.cap, 16);
   for (;;) {
-    if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap);
+    if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
     launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_),
                         raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_});
     const std::uint32_t longest =
@@ -409,7 +445,7 @@ inline void Engine::build_list() {
   ++builds_;
 }
 
-inline void Engine::compute_forces() {
+inline void Engine::compute_forces(const std::uint32_t* halt) {
   auto run = [&](auto f) {
     f.s = sphere_arrays();
     f.rows = rows_.arrays();
@@ -424,6 +460,7 @@ inline void Engine::compute_forces() {
     f.n = ns();
     f.dt = dt_;
     f.wall_rolling_lab = host_.wall_rolling_lab();
+    f.halt = halt;
     launch(ns(), f);
   };
   if (cohesion_) {
@@ -435,15 +472,121 @@ inline void Engine::compute_forces() {
   }
 }
 
-inline void Engine::step() {
-  const double h = 0.5 * dt_;
-  launch(nb(), KickDrift{body_arrays(), h, dt_});
-  launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
-  if (--steps_until_check_ == 0) check_list();
-  compute_forces();
-  launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, h, true});
-  host_.set_time_s(host_.time_s() + dt_);
-  host_.set_step_count(host_.step_count() + 1);
+inline void Engine::first_half() { launch(nb(), KickDriftSpheres{body_arrays(), sphere_arrays(), 0.5 * dt_, dt_, halt()}); }
+
+inline void Engine::second_half() {
+  compute_forces(halt());
+  launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, true, halt()});
+  if (!settle_active_) return;
+  double* ke = raw<double>(ke_sum_);
+  if (criterion_.translational)
+    System::sum_into(nb(), BodyTranslationalKineticEnergy{body_arrays()}, ke, halt());
+  else
+    System::sum_into(nb(), BodyKineticEnergy{body_arrays()}, ke, halt());
+  launch(1, SettleUpdate{raw<SettleState>(settle_), ke, static_cast<double>(nb()), criterion_.threshold_j,
+                         criterion_.min_steps, criterion_.hold_steps});
+}
+
+inline void Engine::run_units(std::uint32_t units) {
+  auto record = [this, units] {
+    for (std::uint32_t u = 0; u < units; ++u) {
+      second_half();
+      first_half();
+    }
+  };
+  // The kernels' arguments are the same every step: a graph is valid until a buffer is
+  // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
+  // Longer runs between checks (set_check_every above 64) are launched plainly.
+  constexpr std::uint32_t kMostUnitsInAGraph = 64;
+  const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 2) |
+                            (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
+  if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
+}
+
+inline void Engine::poll_settle() {
+  std::vector<SettleState> st;
+  to_host(st, settle_);
+  settle_host_ = st[0];
+}
+
+inline void Engine::begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) {
+  invalidate_graphs();
+  if (ke_sum_.size() < System::sum_scratch(nb())) ke_sum_.assign(System::sum_scratch(nb()), 0.0);
+  criterion_ = c;
+  settle_active_ = true;
+  settle_host_ = SettleState{phase_step, below, 0u};
+  settle_[0] = settle_host_;
+}
+
+inline void Engine::end_settle() {
+  invalidate_graphs();
+  settle_active_ = false;
+  criterion_ = SettleCriterion{};
+  settle_host_ = SettleState{};
+  settle_[0] = settle_host_;  // the step kernels run again
+}
+
+inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
+  Advanced r;
+  if (settle_active_ && settle_host_.settled) {
+    r.below = settle_host_.below;
+    r.settled = true;
+    return r;
+  }
+  if (max_steps == 0) {
+    r.below = settle_host_.below;
+    return r;
+  }
+  const std::uint64_t step0 = host_.step_count(), k0 = settle_host_.k;
+  const double t0 = host_.time_s();
+  auto tick = [this](std::uint64_t n) {  // the host clock follows the launches (for messages)
+    for (std::uint64_t q = 0; q < n; ++q) {
+      host_.set_time_s(host_.time_s() + dt_);
+      host_.set_step_count(host_.step_count() + 1);
+    }
+  };
+  // Steps cur = 1 .. max_steps: first half, the list check when due, second half. Between two
+  // checks the launches are (second half of step c, first half of step c + 1) units.
+  std::uint64_t cur = 1;
+  bool stopped = false;
+  first_half();
+  tick(1);
+  for (;;) {
+    if (--steps_until_check_ == 0) {
+      if (settle_active_) {
+        poll_settle();
+        if (settle_host_.settled) {  // met at an earlier step: nothing after it was done
+          stopped = true;
+          steps_until_check_ = 1;
+          break;
+        }
+      }
+      check_list();
+    }
+    // The next check is steps_until_check_ steps after this one.
+    const std::uint64_t units = std::min<std::uint64_t>(steps_until_check_, max_steps - cur);
+    if (units == 0) {
+      second_half();
+      break;
+    }
+    run_units(static_cast<std::uint32_t>(units));
+    tick(units);
+    steps_until_check_ -= static_cast<std::uint32_t>(units - 1);
+    cur += units;
+  }
+  r.steps = max_steps;
+  if (settle_active_) {
+    if (!stopped) poll_settle();
+    r.steps = settle_host_.k - k0;
+    r.below = settle_host_.below;
+    r.settled = settle_host_.settled != 0;
+    if (r.steps < cur) steps_until_check_ = 1;  // steps made no moves after the criterion was met: check at the next
+  }
+  // The host clock after the steps made, with the same additions as one step() at a time.
+  host_.set_step_count(step0);
+  host_.set_time_s(t0);
+  tick(r.steps);
+  return r;
 }
 
 inline void Engine::check_list() {
@@ -488,30 +631,66 @@ inline double Engine::translational_kinetic_energy_j() {
 }
 
 inline void Engine::download(bool history) {
+  // Every array in one batch of copies with one wait (on CUDA: into pinned host memory,
+  // System::Staging), then into the host's arrays.
+  auto& st = staging_;
+  st.clear();
+  auto add = [&st](auto& d) {
+    using T = typename std::decay_t<decltype(d)>::value_type;
+    return st.add(thrust::raw_pointer_cast(d.data()), d.size() * sizeof(T));
+  };
+  auto take = [&st](auto& h, std::size_t item, std::size_t n) {
+    h.resize(n);
+    if (n) std::memcpy(static_cast<void*>(h.data()), st.host(item), n * sizeof(h[0]));
+  };
+  const std::size_t n_b = nb(), n = ns();
+  const std::size_t i_pos = add(b_pos_), i_vel = add(b_vel_), i_omega = add(b_omega_), i_l = add(b_l_), i_q = add(b_q_),
+                    i_force = add(b_force_), i_torque = add(b_torque_), i_sforce = add(s_force_),
+                    i_storque = add(s_torque_), i_contacts = add(s_contacts_);
+  std::size_t i_rj = 0, i_rlen = 0, i_rt = 0, i_rh = 0, i_wh = 0, i_wt = 0;
+  if (history) {
+    i_rj = add(rows_.j);
+    i_rlen = add(rows_.length);
+    i_rt = add(rows_.touching);
+    i_rh = add(rows_.history);
+    i_wh = add(wall_history_);
+    i_wt = add(wall_touching_);
+  }
+  st.run();
   auto& b = host_.bodies_mut();
-  to_host(b.position_m, b_pos_);
-  to_host(b.velocity_m_s, b_vel_);
-  to_host(b.angular_velocity_rad_s, b_omega_);
-  to_host(b.angular_momentum_kg_m2_s, b_l_);
-  to_host(b.orientation, b_q_);
-  to_host(b.force_n, b_force_);
-  to_host(b.torque_n_m, b_torque_);
+  take(b.position_m, i_pos, n_b);
+  take(b.velocity_m_s, i_vel, n_b);
+  take(b.angular_velocity_rad_s, i_omega, n_b);
+  take(b.angular_momentum_kg_m2_s, i_l, n_b);
+  take(b.orientation, i_q, n_b);
+  take(b.force_n, i_force, n_b);
+  take(b.torque_n_m, i_torque, n_b);
   host_.mark_spheres_stale();
   auto& s = host_.spheres_mut();  // positions and velocities recomputed from the bodies (same formula)
-  to_host(s.force_n, s_force_);
-  to_host(s.torque_n_m, s_torque_);
-  host_.set_contact_count(thrust::reduce(exec(), s_contacts_.begin(), s_contacts_.end(), std::size_t{0}));
+  take(s.force_n, i_sforce, n);
+  take(s.torque_n_m, i_storque, n);
+  {
+    std::vector<std::uint32_t> contacts;
+    take(contacts, i_contacts, n);
+    std::size_t total = 0;
+    for (std::uint32_t c : contacts) total += c;
+    host_.set_contact_count(total);
+  }
   if (!history) return;
 
   // A fresh host list from the current positions, with the device's pair and wall history.
-  const std::size_t n = ns();
   std::vector<std::uint32_t> rj, rlen;
   std::vector<std::uint8_t> rt;
   std::vector<contact::ContactHistory> rh;
-  to_host(rj, rows_.j);
-  to_host(rlen, rows_.length);
-  to_host(rt, rows_.touching);
-  to_host(rh, rows_.history);
+  take(rj, i_rj, rows_.j.size());
+  take(rlen, i_rlen, rows_.length.size());
+  take(rt, i_rt, rows_.touching.size());
+  take(rh, i_rh, rows_.history.size());
+  std::vector<contact::ContactHistory> wh;
+  std::vector<std::uint8_t> wt;
+  take(wh, i_wh, wall_history_.size());
+  take(wt, i_wt, wall_touching_.size());
+  st.clear();
   auto& L = host_.neighbor_list_mut();
   L.configure(domain_, skin_);
   L.build(s);
@@ -543,10 +722,6 @@ inline void Engine::download(bool history) {
     throw Error("internal: " + std::to_string(touching - found) +
                 " touching pairs of the device list are missing from the host list");
   // Wall contacts: the touching ones with their history; the host adds the other candidates.
-  std::vector<contact::ContactHistory> wh;
-  std::vector<std::uint8_t> wt;
-  to_host(wh, wall_history_);
-  to_host(wt, wall_touching_);
   sim::WallContacts wc;
   wc.start.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {

@@ -65,33 +65,59 @@ BIODEM_HD inline int image_component(std::int32_t c, int axis) {
   return static_cast<int>(static_cast<std::int8_t>((c >> (8 * axis)) & 0xff));
 }
 
-/// First half kick and drift of every body (the CPU engine's step, parts 1-2, same arithmetic).
-struct KickDrift {
-  BodyArrays b;
-  double h, dt;
-  BIODEM_HD void operator()(std::uint32_t k) const {
-    integrate::kick_and_drift(b.position[k], b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k],
-                              b.inertia[k], b.sphere_count[k], b.force[k], b.torque[k], h, dt);
-  }
-};
+/// A halt flag read at the entry of every step kernel: once the device has found a settle
+/// criterion met (SettleUpdate), the kernels of the later steps of the same advance() do nothing,
+/// so the state stays that of the step that met it. Null (set-up evaluations): never halted.
+BIODEM_HD inline bool halted(const std::uint32_t* halt) { return halt && *halt; }
 
-/// Sphere centres, velocities and spins from their bodies.
+/// Sphere i of body k from the body (centre, velocity, spin); R is the body's rotation matrix.
+BIODEM_HD inline void sphere_from_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, std::uint32_t i,
+                                       const Mat3& R) {
+  const Vec3 x = b.position[k], v = b.velocity[k], w = b.omega[k];
+  const Vec3 arm = R * s.offset[i];
+  s.position[i] = x + arm;
+  s.velocity[i] = v + cross(w, arm);
+  s.omega[i] = w;
+}
+
+/// Sphere centres, velocities and spins from their bodies (one index per sphere; upload).
 struct SpheresFromBodies {
   BodyArrays b;
   SphereArrays s;
   BIODEM_HD void operator()(std::uint32_t i) const {
     const std::uint32_t k = s.body[i];
-    const Vec3 x = b.position[k], v = b.velocity[k], w = b.omega[k];
     if (b.sphere_count[k] == 1 && s.offset[i] == Vec3{}) {
-      s.position[i] = x;
-      s.velocity[i] = v;
-      s.omega[i] = w;
+      s.position[i] = b.position[k];
+      s.velocity[i] = b.velocity[k];
+      s.omega[i] = b.omega[k];
       return;
     }
-    const Vec3 arm = to_matrix(b.orientation[k]) * s.offset[i];
-    s.position[i] = x + arm;
-    s.velocity[i] = v + cross(w, arm);
-    s.omega[i] = w;
+    sphere_from_body(b, s, k, i, to_matrix(b.orientation[k]));
+  }
+};
+
+/// The first part of a step, one thread per body (kick-drift and sphere update fused): half
+/// kick, drift and free-rotor rotation of body k (the CPU engine's step, parts 1-2, same
+/// arithmetic), then its spheres' centres, velocities and spins, with the same formula as
+/// SpheresFromBodies (bit for bit: the rotation matrix is a function of the orientation only).
+struct KickDriftSpheres {
+  BodyArrays b;
+  SphereArrays s;
+  double h, dt;
+  const std::uint32_t* halt;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(halt)) return;
+    integrate::kick_and_drift(b.position[k], b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k],
+                              b.inertia[k], b.sphere_count[k], b.force[k], b.torque[k], h, dt);
+    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+    if (ns == 1 && s.offset[s0] == Vec3{}) {
+      s.position[s0] = b.position[k];
+      s.velocity[s0] = b.velocity[k];
+      s.omega[s0] = b.omega[k];
+      return;
+    }
+    const Mat3 R = to_matrix(b.orientation[k]);
+    for (std::uint32_t i = s0; i < s0 + ns; ++i) sphere_from_body(b, s, k, i, R);
   }
 };
 
@@ -300,7 +326,9 @@ struct Forces {
   std::uint32_t n;
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
+  const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t a) const {
+    if (halted(halt)) return;
     Vec3 f, t;
     std::uint32_t count = 0;
     const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
@@ -383,7 +411,9 @@ struct ReduceKick {
   Vec3 gravity;
   double h;
   bool kick;
+  const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(halt)) return;
     const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
     Vec3 f = b.mass[k] * gravity, t;
     for (std::uint32_t i = s0; i < s0 + ns; ++i) {
@@ -412,6 +442,49 @@ struct BodyKineticEnergy {
 struct BodyTranslationalKineticEnergy {
   BodyArrays b;
   BIODEM_HD double operator()(std::uint32_t k) const { return 0.5 * b.mass[k] * norm2(b.velocity[k]); }
+};
+
+/// The settle criterion's state on the device (DeviceEngine::begin_settle): the phase step k,
+/// the consecutive steps below the threshold, and whether the criterion is met (then `settled`
+/// is the halt flag of the step kernels).
+struct SettleState {
+  std::uint64_t k = 0, below = 0;
+  std::uint32_t settled = 0;
+};
+
+/// After each step of a criterion phase, one thread: the run driver's rule (SPEC 5) on the
+/// kinetic energy that the preceding reduction left in *ke, with the same arithmetic as the
+/// host (mean = total / bodies).
+struct SettleUpdate {
+  SettleState* st;
+  const double* ke;
+  double bodies;
+  double threshold;
+  std::uint64_t min_steps, hold_steps;
+  BIODEM_HD void operator()(std::uint32_t) const {
+    if (st->settled) return;
+    const double mean = bodies > 0.0 ? *ke / bodies : 0.0;
+    st->k += 1;
+    st->below = mean < threshold ? st->below + 1 : 0;
+    st->settled = st->k >= min_steps && st->below >= hold_steps ? 1u : 0u;
+  }
+};
+
+/// A sum of f(0) + f(1) + ... + f(n - 1) in index order, into device memory, by one thread:
+/// the order of Thrust's sequential reduction (what the host-threads engine's reductions run),
+/// so the emulated criterion sees the same bits as the host-side reduction did.
+template <class F>
+struct SequentialSum {
+  F f;
+  std::uint32_t n;
+  double* out;
+  const std::uint32_t* halt;
+  BIODEM_HD void operator()(std::uint32_t) const {
+    if (halted(halt)) return;
+    double r = 0.0;
+    for (std::uint32_t i = 0; i < n; ++i) r = r + f(i);
+    *out = r;
+  }
 };
 
 }  // namespace biodem::gpu::BIODEM_GPU_NS

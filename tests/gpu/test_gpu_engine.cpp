@@ -488,3 +488,114 @@ TEST(GpuEngine, WallsOfEveryKindSeriallyAndInParallel) {
   EXPECT_LT(gap, 1e-9);
   EXPECT_EQ(serial->contact_count(), cpu->contact_count());
 }
+
+// The settle criterion evaluated on the device (DeviceEngine::begin_settle / advance): the phase
+// ends at the step where the run driver's rule, applied one step at a time on the host to the
+// same engine's kinetic energy (what the driver did before the criterion moved to the device),
+// ends it; the state there is bit-identical whatever the length of the runs of steps; the steps
+// after it do nothing; after end_settle the engine steps on as before, bit for bit. The CPU
+// engine's criterion ends the phase at the same step (its kinetic energy differs in the last
+// bits only). Scene: 120 beads thrown onto a plane, settling.
+TEST(GpuEngine, SettleCriterionOnTheDeviceEndsAtTheHostStep) {
+  auto scene = [] {
+    SimSetup su = bead_setup(0.1, 0.5, 0.5);
+    su.templates = {sphere_template(0.5e-3)};
+    su.dt_s = 1e-5;
+    su.gravity_m_s2 = {0, -9.81, 0};
+    auto s = std::make_unique<sim::Simulation>(make_simulation(su));
+    s->add_wall(plane_wall({0, 0, 0}, {0, 1, 0}));
+    std::mt19937_64 g(5);
+    for (int i = 0; i < 12; ++i)
+      for (int l = 0; l < 10; ++l) {
+        const Vec3 x{(i - 5.5) * 1.2e-3, 0.7e-3 + 0.2e-3 * uniform(g), (l - 4.5) * 1.2e-3};
+        add_particle(*s, 0, x, {0.02 * (uniform(g) - 0.5), 0.0, 0.02 * (uniform(g) - 0.5)});
+      }
+    return s;
+  };
+  for (const bool translational : {false, true}) {
+    gpu::DeviceEngine::SettleCriterion c;
+    c.threshold_j = 2e-12;
+    c.translational = translational;
+    c.min_steps = 200;
+    c.hold_steps = 100;
+    const std::uint64_t max_steps = 30000;
+    auto met = [&](std::uint64_t k, std::uint64_t below) { return k >= c.min_steps && below >= c.hold_steps; };
+    // The host rule, one step at a time.
+    auto ref = scene();
+    auto er = gpu_engine(*ref);
+    er->upload();
+    std::uint64_t k_ref = 0, below_ref = 0;
+    while (!met(k_ref, below_ref) && k_ref < max_steps) {
+      er->step();
+      ++k_ref;
+      const double ke = translational ? er->translational_kinetic_energy_j() : er->kinetic_energy_j();
+      below_ref = ke / static_cast<double>(ref->bodies().size()) < c.threshold_j ? below_ref + 1 : 0;
+    }
+    er->download(false);
+    // The CPU engine with the same rule.
+    auto cpu = scene();
+    std::uint64_t k_cpu = 0, below_cpu = 0;
+    {
+      const ScopedThreads one(1);
+      cpu->refresh();
+      while (!met(k_cpu, below_cpu) && k_cpu < max_steps) {
+        cpu->step();
+        ++k_cpu;
+        const double ke = translational ? cpu->translational_kinetic_energy_j() : cpu->kinetic_energy_j();
+        below_cpu = ke / static_cast<double>(cpu->bodies().size()) < c.threshold_j ? below_cpu + 1 : 0;
+      }
+    }
+    std::printf("[measured] settle criterion (%s): host rule on the GPU engine ends at step %llu, CPU engine at %llu\n",
+                translational ? "translational" : "total", static_cast<unsigned long long>(k_ref),
+                static_cast<unsigned long long>(k_cpu));
+    ASSERT_TRUE(met(k_ref, below_ref)) << "the scene must settle within max_steps for the test to mean anything";
+    EXPECT_GT(k_ref, 2 * c.min_steps);
+    EXPECT_EQ(k_cpu, k_ref);
+    for (const std::uint64_t run : {1ull, 7ull, 37ull, 200ull}) {
+      auto s = scene();
+      auto e = gpu_engine(*s);
+      e->upload();
+      e->begin_settle(c, 0, 0);
+      std::uint64_t k = 0, below = 0, calls = 0;
+      bool settled = false;
+      while (!settled && k < max_steps) {
+        const auto a = e->advance(std::min(run, max_steps - k));
+        ASSERT_GT(a.steps, 0u);
+        ASSERT_TRUE(a.steps == std::min(run, max_steps - k) || a.settled) << "a run stops early only when settled";
+        k += a.steps;
+        below = a.below;
+        settled = a.settled;
+        ++calls;
+      }
+      EXPECT_EQ(k, k_ref) << "runs of " << run;
+      EXPECT_EQ(below, below_ref) << "runs of " << run;
+      EXPECT_EQ(s->step_count(), ref->step_count());
+      EXPECT_EQ(s->time_s(), ref->time_s());
+      // Settled: a further run does nothing.
+      EXPECT_EQ(e->advance(10).steps, 0u);
+      e->download(false);
+      const auto& xa = s->bodies().position_m;
+      const auto& xr = ref->bodies().position_m;
+      const auto& va = s->bodies().velocity_m_s;
+      const auto& vr = ref->bodies().velocity_m_s;
+      ASSERT_EQ(xa.size(), xr.size());
+      EXPECT_EQ(std::memcmp(xa.data(), xr.data(), xa.size() * sizeof(Vec3)), 0) << "runs of " << run;
+      EXPECT_EQ(std::memcmp(va.data(), vr.data(), va.size() * sizeof(Vec3)), 0) << "runs of " << run;
+      if (run == 37) {
+        // After the phase the engine steps again, as the engine stepped one step at a time.
+        e->end_settle();
+        auto r2 = scene();
+        auto e2 = gpu_engine(*r2);
+        e2->upload();
+        for (std::uint64_t q = 0; q < k_ref + 50; ++q) e2->step();
+        EXPECT_EQ(e->advance(50).steps, 50u);
+        e->download(false);
+        e2->download(false);
+        EXPECT_EQ(std::memcmp(s->bodies().position_m.data(), r2->bodies().position_m.data(), xa.size() * sizeof(Vec3)), 0);
+        EXPECT_EQ(s->step_count(), r2->step_count());
+        std::printf("[measured] runs of %llu steps: %llu calls for %llu steps\n", static_cast<unsigned long long>(run),
+                    static_cast<unsigned long long>(calls), static_cast<unsigned long long>(k));
+      }
+    }
+  }
+}

@@ -83,6 +83,46 @@ TEST(GpuRuns, StoppedGpuRunResumesBitForBit) {
   }
 }
 
+// The settle criterion is evaluated on the device from the phase step and the counter of steps
+// below the threshold that a checkpoint holds: a run killed while the bed is below the threshold
+// but not yet for the whole hold time, and resumed, ends the settle phase at the same step with
+// byte-identical outputs. biomass_9_6_quick settles on the criterion at step 11,011 (hold 0.01 s =
+// 667 steps, so below the threshold from step 10,345 on); with a checkpoint every 0.1605 s
+// (10,700 steps) the checkpoint at step 10,700 falls inside that window, and the run is killed at
+// step 10,750.
+TEST(GpuRuns, SettleCriterionResumesInsideTheHoldWindow) {
+  std::string text = slurp(source_dir() + "/tests/cases/biomass_9_6_quick.toml");
+  const std::string every = "checkpoint_every_s = 0.5";
+  const auto at = text.find(every);
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, every.size(), "checkpoint_every_s = 0.1605");
+  const std::string c = (fs::current_path() / "gpu_settle_resume.toml").string();
+  std::ofstream(c) << text;
+  const std::string full = fresh_dir("gpu_settle_full"), d = fresh_dir("gpu_settle_killed");
+  auto rf = run_command(biodem_exe() + " run " + c + " --out " + full + " --threads 1 --device " + gpu_device());
+  ASSERT_EQ(rf.status, 0) << rf.output;
+  auto settle_end = [](const std::string& log) {
+    const auto p = log.find("phase 'settle' ends at t = ");
+    return p == std::string::npos ? std::string() : log.substr(p, log.find(" s after", p) - p);
+  };
+  const std::string log_full = slurp(full + "/run.log");
+  ASSERT_NE(log_full.find("phase 'settle' ends at t = 0.165165 s after 11011 steps"), std::string::npos)
+      << "the case must settle on the criterion at step 11,011 for the window above to hold\n" << log_full;
+  ASSERT_NE(log_full.find("(settled: mean kinetic energy below threshold)"), std::string::npos);
+  auto rk = run_command("BIODEM_TEST_ABORT_AT_STEP=10750 " + biodem_exe() + " run " + c + " --out " + d +
+                        " --threads 1 --device " + gpu_device());
+  ASSERT_EQ(rk.status, 137) << rk.output;
+  auto rr = run_command(biodem_exe() + " run " + c + " --out " + d + " --threads 1 --device " + gpu_device() + " --resume");
+  ASSERT_EQ(rr.status, 0) << rr.output;
+  const std::string log_resumed = slurp(d + "/run.log");
+  EXPECT_NE(log_resumed.find("resumed from checkpoint.bin at t = 0.1605 s (step 10700)"), std::string::npos) << log_resumed;
+  EXPECT_NE(log_resumed.find("phase 1 'settle' resumes"), std::string::npos) << log_resumed;
+  // The resumed log has the killed run's "settle starts" and the resumed run's "settle ends".
+  EXPECT_EQ(settle_end(log_resumed), settle_end(log_full));
+  expect_same_outputs(full, d);
+  EXPECT_EQ(slurp(full + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
+}
+
 TEST(GpuRuns, CheckpointsMoveBetweenDevices) {
   // Reference runs on each engine, then each stopped and resumed on the other engine.
   const std::string cpu = fresh_dir("xdev_cpu"), gpu = fresh_dir("xdev_gpu");
