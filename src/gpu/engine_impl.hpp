@@ -26,6 +26,7 @@
 #include "core/error.hpp"
 #include "gpu/device_engine.hpp"
 #include "gpu/kernels.hpp"
+#include "neighbor/skin.hpp"
 
 namespace biodem::gpu::BIODEM_GPU_NS {
 
@@ -221,10 +222,10 @@ inline void Engine::upload() {
   gravity_ = host_.gravity_m_s2();
   domain_ = host_.domain();
   skin_ = host_.skin_m();
-  if (skin_ < 0.0) {  // not yet resolved by a host refresh: the same default (a quarter of the smallest diameter)
+  if (skin_ < 0.0) {  // not yet resolved by a host refresh: the same default (neighbor/skin.hpp)
     double rmin = 1e300;
     for (double r : s.radius_m) rmin = std::min(rmin, r);
-    skin_ = s.size() ? 0.5 * rmin : 1e-3;
+    skin_ = s.size() ? neighbor::default_skin_m(rmin) : 1e-3;
   }
   r_max_ = 0.0;
   for (double r : s.radius_m) r_max_ = std::max(r_max_, r);
