@@ -4,14 +4,14 @@
 # over the timed rotation phase (settled bed), and the ratios the project tracks:
 #   - biodem 1 -> 2 threads speed-up, for each repetition (runs interleaved: 1, 2, 1, 2, ...);
 #   - biodem 1 thread / LIGGGHTS 1 rank, with LIGGGHTS at its recommended skin (d/2) and at
-#     biodem's skin (d/4).
+#     biodem's default skin (d/8 since 2026-11-25; d/4 before).
 #
 #   bash bench/run_bench.sh [case ...]      cases: bench/cases/<case>_bench.toml or <case>.toml:
 #                                           glass_small glass raw clump_overhead_needles
 #                                           clump_overhead_spheres (default: glass_small glass)
 #
 # Environment: THREADS="1 2" (biodem threads and LIGGGHTS MPI ranks), REPS=3 (interleaved biodem
-# repetitions), LIGGGHTS_SKINS="1.0 0.5" (LIGGGHTS skin / radius; its 1-rank runs use every value,
+# repetitions), LIGGGHTS_SKINS="1.0 0.25" (LIGGGHTS skin / radius; its 1-rank runs use every value,
 # the other rank counts the first), NO_LIGGGHTS=1 to skip the peer, OUT=/tmp/biodem-bench.
 # Build first with scripts/build.sh (optionally -DBIODEM_NATIVE=ON). Run on an idle machine: a
 # second job on a 2-core machine halves the 2-thread figures.
@@ -21,7 +21,7 @@ root=$(dirname "$here")
 cases=${*:-glass_small glass}
 THREADS=${THREADS:-1 2}
 REPS=${REPS:-3}
-LIGGGHTS_SKINS=${LIGGGHTS_SKINS:-1.0 0.5}
+LIGGGHTS_SKINS=${LIGGGHTS_SKINS:-1.0 0.25}
 OUT=${OUT:-/tmp/biodem-bench}
 mkdir -p "$OUT"
 results="$OUT/results.csv"

@@ -18,7 +18,7 @@
 #                      needs roughly 10-15 min on the 2-core VM: run it with TIMEOUT=1500.
 #   NSETTLE=, NROT=    override the step counts above for every case
 #   SKINF=1.0          neighbour skin as a fraction of the particle radius (1.0 = d/2, the
-#                      recommended value; 0.5 = d/4, biodem's default)
+#                      recommended value; 0.25 = d/8, biodem's default; 0.5 = d/4 before)
 #   NICE="nice -n 10"  prefix for the run (set NICE= to run at normal priority)
 #   LIGGGHTS=liggghts  binary
 set -u

@@ -25,7 +25,7 @@ struct RunConfig {
   Vec3d gravity_m_s2{0.0, -9.81, 0.0};
   bool allow_large_dt = false;         // dt may exceed 40 % of the Rayleigh time
   bool allow_initial_overlap = false;  // explicit particles may start overlapping
-  std::optional<double> skin_m;        // Verlet skin; default: a quarter of the smallest sphere diameter
+  std::optional<double> skin_m;        // Verlet skin; default: an eighth of the smallest sphere diameter
 };
 
 struct Material {

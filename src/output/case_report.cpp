@@ -94,7 +94,7 @@ std::string describe_case(const config::CaseConfig& c) {
 
   os << "case: " << (c.source_path.empty() ? "(in memory)" : c.source_path) << "\n";
   os << "run: dt = " << num(dt) << " s, seed = " << c.run.seed << ", gravity = " << vec(c.run.gravity_m_s2)
-     << " m/s^2, skin = " << num(resolved_skin_m(c)) << " m" << (c.run.skin_m ? "" : " (default: a quarter of the smallest sphere diameter)");
+     << " m/s^2, skin = " << num(resolved_skin_m(c)) << " m" << (c.run.skin_m ? "" : " (default: an eighth of the smallest sphere diameter)");
   if (c.run.allow_large_dt) os << ", allow_large_dt";
   if (c.run.allow_initial_overlap) os << ", allow_initial_overlap";
   os << "\n";

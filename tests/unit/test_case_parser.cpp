@@ -453,10 +453,10 @@ TEST(CaseParser, PeriodicDrumNeedsNoEndplatePair) {
 TEST(CaseParser, PeriodicDrumMustHoldThreeCells) {
   std::string t = edit(kSpecExample, "endplate_material = \"glass\"", "axial_boundary = \"periodic\"");
   t = edit(t, "count = 19791", "count = 1000");
-  // 3 x (1 mm + 0.25 mm default skin) = 3.75 mm <= 4 mm: fine; 3.5 mm is too narrow.
-  t = edit(t, "width_m = 0.005", "width_m = 0.004");
+  // 3 x (1 mm + 0.125 mm default skin) = 3.375 mm <= 3.4 mm: fine; 3.3 mm is too narrow.
+  t = edit(t, "width_m = 0.005", "width_m = 0.0034");
   EXPECT_TRUE(error_of(t).empty()) << error_of(t);
-  EXPECT_ERROR_NAMES(edit(t, "width_m = 0.004", "width_m = 0.0035"), "[drum].width_m", "periodic");
+  EXPECT_ERROR_NAMES(edit(t, "width_m = 0.0034", "width_m = 0.0033"), "[drum].width_m", "periodic");
 }
 
 TEST(CaseParser, DtMustBePositive) {
@@ -589,7 +589,7 @@ TEST(CaseReport, NeedleReportShowsSpheresAndLength) {
   const std::string r = output::describe_case(lc.config);
   EXPECT_NE(r.find("n_spb = 3"), std::string::npos) << r;
   EXPECT_NE(r.find("clump length 0.007758"), std::string::npos) << r;  // 4 x 1940 um
-  EXPECT_NEAR(case_file::resolved_skin_m(lc.config), 746e-6, 1e-12);   // a quarter of d = 4 x 746 um
+  EXPECT_NEAR(case_file::resolved_skin_m(lc.config), 373e-6, 1e-12);   // an eighth of d = 4 x 746 um
 }
 
 // ------------------------------------------------------------------ output directory
