@@ -46,10 +46,11 @@ BIODEM_HD inline ContactGeometryT<R> sphere_sphere_geometry(const vec3_t<R>& d_i
 /// Sphere-wall geometry: R_j, m_j -> infinity, so R* = r_i and m* = m_i. `gap` is the distance
 /// from the sphere centre to the wall surface along `normal`; `v_wall`/`w_wall` the wall's
 /// surface velocity at the contact point and its angular velocity.
-BIODEM_HD inline ContactGeometry sphere_wall_geometry(const Vec3& normal, double gap, double r_i, double m_i,
-                                            const Vec3& v_i, const Vec3& w_i, const Vec3& v_wall,
-                                            const Vec3& w_wall) {
-  ContactGeometry g;
+template <class R>
+BIODEM_HD inline ContactGeometryT<R> sphere_wall_geometry(const vec3_t<R>& normal, R gap, R r_i, R m_i,
+                                                          const vec3_t<R>& v_i, const vec3_t<R>& w_i,
+                                                          const vec3_t<R>& v_wall, const vec3_t<R>& w_wall) {
+  ContactGeometryT<R> g;
   g.distance_m = gap;
   g.normal = normal;
   g.overlap_m = r_i - gap;

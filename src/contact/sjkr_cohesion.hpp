@@ -19,7 +19,10 @@ template <class R>
 BIODEM_HD inline R sjkr_area_sphere_sphere(R r_i, R r_j, R d) {
   return std::numbers::pi * (r_i + r_j - d) * (d + r_i - r_j) * (d - r_i + r_j) * (d + r_i + r_j) / (4.0 * d * d);
 }
-BIODEM_HD inline double sjkr_area_sphere_wall(double r_i, double d) { return std::numbers::pi * (r_i * r_i - d * d); }
+template <class R>
+BIODEM_HD inline R sjkr_area_sphere_wall(R r_i, R d) {
+  return std::numbers::pi * (r_i * r_i - d * d);
+}
 /// Magnitude of the attractive force (to be subtracted from the repulsive normal force).
 template <class R>
 BIODEM_HD inline R sjkr_force(R cohesion_energy_density_j_m3, R area_m2) {

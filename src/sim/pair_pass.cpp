@@ -246,6 +246,25 @@ std::size_t pair_rows(PairKernel kernel, const PairPassData& d, std::size_t i0, 
   }
 }
 
+template <bool Cohesion, bool Rolling>
+void (*wall_batch_evaluator(PairKernel kernel))(WallBatch&) {
+  switch (kernel) {
+#if defined(BIODEM_X86_LANES)
+    case PairKernel::Lanes4: return &evaluate_wall_batch_lanes4<Cohesion, Rolling>;
+    case PairKernel::Lanes8: return &evaluate_wall_batch_lanes8<Cohesion, Rolling>;
+#endif
+#if defined(BIODEM_SIMD_LANES)
+    case PairKernel::Lanes2: return &evaluate_wall_batch_lanes2<Cohesion, Rolling>;
+#endif
+    default: return nullptr;
+  }
+}
+
+template void (*wall_batch_evaluator<false, false>(PairKernel))(WallBatch&);
+template void (*wall_batch_evaluator<false, true>(PairKernel))(WallBatch&);
+template void (*wall_batch_evaluator<true, false>(PairKernel))(WallBatch&);
+template void (*wall_batch_evaluator<true, true>(PairKernel))(WallBatch&);
+
 template std::size_t pair_rows<false, false>(PairKernel, const PairPassData&, std::size_t, std::size_t);
 template std::size_t pair_rows<false, true>(PairKernel, const PairPassData&, std::size_t, std::size_t);
 template std::size_t pair_rows<true, false>(PairKernel, const PairPassData&, std::size_t, std::size_t);

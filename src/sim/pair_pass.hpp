@@ -13,6 +13,8 @@
 //   back and summed in entry order. Every lane does the scalar law's IEEE operations in the same
 //   order and no translation unit contracts them into fused multiply-adds, so both give the same
 //   bits (tests/unit/test_pair_pass.cpp).
+// The sphere-wall contacts use the same lanes (WallBatch, evaluated in wall_pass_lanes*.cpp,
+// staged by Simulation::gather_and_wall_batches) whenever the pair pass is not scalar.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -85,14 +87,40 @@ struct PairBatch {
   const PairPassData* data = nullptr;
 };
 
+/// Up to kCapacity touching sphere-wall contacts (simulation_step.cpp, gather_and_walls): what
+/// the scalar wall loop computed before the contact law (the wall's normal and gap, its surface
+/// velocity and spin at the contact), the sphere and wall-slot indices and the pair parameters;
+/// then the results. The sphere's radius, mass, velocity and spin are gathered by index.
+struct WallBatch {
+  enum Field : int {
+    Nx, Ny, Nz, Gap, Vwx, Vwy, Vwz, Wwx, Wwy, Wwz,  // inputs
+    Fx, Fy, Fz, Tix, Tiy, Tiz,  // outputs
+    Xix, Xiy, Xiz, Mrx, Mry, Mrz,  // the wall slot's history: in, then updated
+    kFields
+  };
+  static constexpr int kCapacity = 64;
+  static constexpr int kStride = kCapacity + 8;
+  alignas(64) double a[kFields][kStride];
+  alignas(64) std::uint32_t i[kCapacity], slot[kCapacity];
+  const contact::PairParams* params[kCapacity];
+  int n = 0;
+  const state::SphereStore* spheres = nullptr;
+  double dt_s = 0.0;
+};
+
 // Each evaluates slots [0, n rounded up to its width) of the batch. BIODEM_SIMD_LANES: the
 // compiler has <experimental/simd> (CMakeLists.txt); without it the pass is scalar only.
 #if defined(BIODEM_SIMD_LANES)
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes2(PairBatch& b);
+template <bool Cohesion, bool Rolling> void evaluate_wall_batch_lanes2(WallBatch& b);
 #endif
 #if defined(BIODEM_X86_LANES)
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes4(PairBatch& b);
 template <bool Cohesion, bool Rolling> void evaluate_batch_lanes8(PairBatch& b);
+template <bool Cohesion, bool Rolling> void evaluate_wall_batch_lanes4(WallBatch& b);
+template <bool Cohesion, bool Rolling> void evaluate_wall_batch_lanes8(WallBatch& b);
 #endif
+/// The wall batch evaluator of a pair kernel (nullptr for the scalar kernel).
+template <bool Cohesion, bool Rolling> void (*wall_batch_evaluator(PairKernel k))(WallBatch&);
 
 }  // namespace biodem::sim

@@ -65,4 +65,52 @@ inline void evaluate_batch(PairBatch& b) {
   }
 }
 
+/// The sphere-wall contacts of a wall batch, W at a time (the same operations as the scalar wall
+/// loop of Simulation::gather_and_walls after the wall's geometry).
+template <class V, bool Cohesion, bool Rolling>
+inline void evaluate_wall_batch(WallBatch& b) {
+  using V3 = Vec3T<V>;
+  using F = WallBatch;
+  constexpr int w = static_cast<int>(V::size());
+  const state::SphereStore& s = *b.spheres;
+  const bool tangential_reduce = b.params[0]->tangential_reduce;
+  for (int g = 0; g < b.n; g += w) {
+    auto ld = [&](int f) { return V(&b.a[f][g], stdx::vector_aligned); };
+    auto ld3 = [&](int f) { return V3{ld(f), ld(f + 1), ld(f + 2)}; };
+    auto gather = [&](const std::vector<double>& base) { return V([&](auto l) { return base[b.i[g + l]]; }); };
+    auto gather3 = [&](const std::vector<Vec3>& base) {
+      return V3{V([&](auto l) { return base[b.i[g + l]].x; }), V([&](auto l) { return base[b.i[g + l]].y; }),
+                V([&](auto l) { return base[b.i[g + l]].z; })};
+    };
+    auto param = [&](double contact::PairParams::*field) { return V([&](auto l) { return b.params[g + l]->*field; }); };
+    const V ri = gather(s.radius_m), gap = ld(F::Gap);
+    const contact::ContactGeometryT<V> geo = contact::sphere_wall_geometry<V>(
+        ld3(F::Nx), gap, ri, gather(s.body_mass_kg), gather3(s.velocity_m_s), gather3(s.angular_velocity_rad_s),
+        ld3(F::Vwx), ld3(F::Wwx));
+    contact::PairParamsT<V> p;
+    p.y_eff_pa = param(&contact::PairParams::y_eff_pa);
+    p.g_eff_pa = param(&contact::PairParams::g_eff_pa);
+    p.beta = param(&contact::PairParams::beta);
+    p.friction = param(&contact::PairParams::friction);
+    if constexpr (Rolling) p.rolling_friction = param(&contact::PairParams::rolling_friction);
+    if constexpr (Cohesion) p.cohesion_energy_density_j_m3 = param(&contact::PairParams::cohesion_energy_density_j_m3);
+    p.tangential_reduce = tangential_reduce;
+    contact::ContactHistoryT<V> h;
+    h.xi = ld3(F::Xix);
+    if constexpr (Rolling) h.m_r = ld3(F::Mrx);
+    const V area = Cohesion ? contact::sjkr_area_sphere_wall<V>(ri, gap) : V(0.0);
+    const contact::ContactOutputT<V> out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, h, area, b.dt_s);
+    auto st = [&](int f, const V& v) { v.copy_to(&b.a[f][g], stdx::vector_aligned); };
+    auto st3 = [&](int f, const V3& v) {
+      st(f, v.x);
+      st(f + 1, v.y);
+      st(f + 2, v.z);
+    };
+    st3(F::Fx, out.force_i);
+    st3(F::Tix, out.torque_i);
+    st3(F::Xix, h.xi);
+    if constexpr (Rolling) st3(F::Mrx, h.m_r);
+  }
+}
+
 }  // namespace biodem::sim

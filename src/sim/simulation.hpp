@@ -238,6 +238,8 @@ class Simulation {
   PairPassData pair_pass_data();
   template <bool Cohesion, bool Rolling>
   std::size_t gather_and_walls(std::size_t i0, std::size_t i1);
+  template <bool Cohesion, bool Rolling>
+  std::size_t gather_and_wall_batches(std::size_t i0, std::size_t i1, void (*evaluate)(WallBatch&));
   void reduce_and_kick(std::size_t b0, std::size_t b1, bool kick);
   /// Cuts the bodies into one block of about equal work per thread (block_body_).
   void update_work_blocks();

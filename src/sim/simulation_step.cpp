@@ -271,6 +271,8 @@ std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
   auto& wc = wall_contacts_;
   const double dt = dt_s_;
   std::size_t contacts = 0;
+  if (const auto evaluate = wall_batch_evaluator<Cohesion, Rolling>(pair_kernel_))
+    return gather_and_wall_batches<Cohesion, Rolling>(i0, i1, evaluate);
   for (std::size_t i = i0; i < i1; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
     for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
@@ -306,6 +308,85 @@ std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
     spheres_.force_n[i] = f;
     spheres_.torque_n_m[i] = t;
   }
+  return contacts;
+}
+
+template <bool Cohesion, bool Rolling>
+std::size_t Simulation::gather_and_wall_batches(std::size_t i0, std::size_t i1, void (*evaluate)(WallBatch&)) {
+  // As gather_and_walls, with the touching wall contacts staged and evaluated in SIMD lanes (the
+  // pair kernel's width): each sphere's sum (own row, then its j entries) is stored first, and
+  // its wall contacts are added to it in slot order when their batch is evaluated, so every
+  // sphere adds the same numbers in the same order as the scalar loop.
+  const auto& s = spheres_;
+  const auto& L = list_;
+  auto& wc = wall_contacts_;
+  using F = WallBatch;
+  WallBatch b;
+  b.spheres = &spheres_;
+  b.dt_s = dt_s_;
+  auto put3 = [&](int f, int k, const Vec3& v) {
+    b.a[f][k] = v.x;
+    b.a[f + 1][k] = v.y;
+    b.a[f + 2][k] = v.z;
+  };
+  auto get3 = [&](int f, int k) { return Vec3{b.a[f][k], b.a[f + 1][k], b.a[f + 2][k]}; };
+  auto flush = [&] {
+    const int n = b.n;
+    if (n == 0) return;
+    for (int k = n; k % 8 != 0; ++k) {  // pad with copies of the last contact (results unused)
+      for (int f = 0; f < F::kFields; ++f) b.a[f][k] = b.a[f][n - 1];
+      b.i[k] = b.i[n - 1];
+      b.slot[k] = b.slot[n - 1];
+      b.params[k] = b.params[n - 1];
+    }
+    evaluate(b);
+    for (int k = 0; k < n; ++k) {
+      const std::uint32_t i = b.i[k], slot = b.slot[k];
+      wc.touching[slot] = 1;
+      wc.history[slot].xi = get3(F::Xix, k);
+      if constexpr (Rolling) wc.history[slot].m_r = get3(F::Mrx, k);
+      spheres_.force_n[i] += get3(F::Fx, k);
+      spheres_.torque_n_m[i] += get3(F::Tix, k);
+    }
+    b.n = 0;
+  };
+  std::size_t contacts = 0;
+  for (std::size_t i = i0; i < i1; ++i) {
+    Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
+    for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
+      const std::uint32_t k = L.rev_entry[q];
+      f -= L.force_i[k];
+      t += L.torque_j[k];
+    }
+    spheres_.force_n[i] = f;
+    spheres_.torque_n_m[i] = t;
+    for (std::uint32_t slot = wc.start[i]; slot < wc.start[i + 1]; ++slot) {
+      const WallSpec& ws = walls_[wc.wall[slot]];
+      const double ri = s.radius_m[i];
+      const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
+      if (!hit.touching) {
+        if (wc.touching[slot]) {
+          wc.touching[slot] = 0;
+          wc.history[slot] = {};
+        }
+        continue;
+      }
+      const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
+      const int k = b.n;
+      put3(F::Nx, k, hit.normal);
+      b.a[F::Gap][k] = hit.gap_m;
+      put3(F::Vwx, k, walls::wall_velocity(ws.geometry, surface_point));
+      put3(F::Wwx, k, wall_rolling_lab_ ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal);
+      put3(F::Xix, k, wc.history[slot].xi);
+      if constexpr (Rolling) put3(F::Mrx, k, wc.history[slot].m_r);
+      b.i[k] = static_cast<std::uint32_t>(i);
+      b.slot[k] = slot;
+      b.params[k] = &pairs_(s.material[i], ws.material);
+      ++contacts;
+      if (++b.n == F::kCapacity) flush();
+    }
+  }
+  flush();
   return contacts;
 }
 

@@ -188,9 +188,9 @@ TEST(Determinism, OneThreadJobAfterATwoThreadJobDoesNotWait) {
   expect_identical(one, two, "1 thread after 2 threads");
 }
 
-// The pair pass's SIMD kernels (sim/pair_pass.hpp) against its scalar reference on the whole
-// engine: spheres and needle clumps, cohesion, rolling friction, a turning cylinder, a periodic
-// axis, 2 threads. Tolerance: none (tests/unit/test_pair_pass.cpp says why the bits agree).
+// The pair pass's SIMD kernels (sim/pair_pass.hpp), and with them the wall batches of the same
+// width, against the scalar reference on the whole engine: spheres and needle clumps, cohesion,
+// rolling friction, a turning cylinder, a periodic axis, 2 threads. Tolerance: none (tests/unit/test_pair_pass.cpp says why the bits agree).
 TEST(Determinism, EveryPairKernelGivesTheScalarKernelsBits) {
   const std::uint64_t steps = 300;
   const Snapshot scalar = run(2, steps, 16, false, sim::PairKernel::Scalar);
