@@ -9,6 +9,21 @@
 
 namespace biodem::sim {
 
+/// The pair parameters of W contacts, one per lane (pair and wall batches).
+template <class V, bool Cohesion, bool Rolling>
+inline contact::PairParamsT<V> lane_params(const contact::PairParams* const* params, bool tangential_reduce) {
+  auto param = [&](double contact::PairParams::*field) { return V([&](auto l) { return params[l]->*field; }); };
+  contact::PairParamsT<V> p;
+  p.y_eff_pa = param(&contact::PairParams::y_eff_pa);
+  p.g_eff_pa = param(&contact::PairParams::g_eff_pa);
+  p.beta = param(&contact::PairParams::beta);
+  p.friction = param(&contact::PairParams::friction);
+  if constexpr (Rolling) p.rolling_friction = param(&contact::PairParams::rolling_friction);
+  if constexpr (Cohesion) p.cohesion_energy_density_j_m3 = param(&contact::PairParams::cohesion_energy_density_j_m3);
+  p.tangential_reduce = tangential_reduce;
+  return p;
+}
+
 template <class V, bool Cohesion, bool Rolling>
 inline void evaluate_batch(PairBatch& b) {
   using V3 = Vec3T<V>;
@@ -26,7 +41,6 @@ inline void evaluate_batch(PairBatch& b) {
       return V3{V([&](auto l) { return base[idx[g + l]].x; }), V([&](auto l) { return base[idx[g + l]].y; }),
                 V([&](auto l) { return base[idx[g + l]].z; })};
     };
-    auto param = [&](double contact::PairParams::*field) { return V([&](auto l) { return b.params[g + l]->*field; }); };
     const V ri = gather(d.radius_m, b.i), rj = gather(d.radius_m, b.j);
     using std::sqrt;
     const V dist = sqrt(ld(F::Dist2));
@@ -34,14 +48,7 @@ inline void evaluate_batch(PairBatch& b) {
         V3{ld(F::Dx), ld(F::Dy), ld(F::Dz)}, dist, ri, rj, gather(d.body_mass_kg, b.i), gather(d.body_mass_kg, b.j),
         gather3(d.velocity_m_s, b.i), gather3(d.velocity_m_s, b.j), gather3(d.angular_velocity_rad_s, b.i),
         gather3(d.angular_velocity_rad_s, b.j));
-    contact::PairParamsT<V> p;
-    p.y_eff_pa = param(&contact::PairParams::y_eff_pa);
-    p.g_eff_pa = param(&contact::PairParams::g_eff_pa);
-    p.beta = param(&contact::PairParams::beta);
-    p.friction = param(&contact::PairParams::friction);
-    if constexpr (Rolling) p.rolling_friction = param(&contact::PairParams::rolling_friction);
-    if constexpr (Cohesion) p.cohesion_energy_density_j_m3 = param(&contact::PairParams::cohesion_energy_density_j_m3);
-    p.tangential_reduce = tangential_reduce;
+    const contact::PairParamsT<V> p = lane_params<V, Cohesion, Rolling>(b.params + g, tangential_reduce);
     contact::ContactHistoryT<V> h;
     h.xi = V3{V([&](auto l) { return history[b.k[g + l]].xi.x; }), V([&](auto l) { return history[b.k[g + l]].xi.y; }),
               V([&](auto l) { return history[b.k[g + l]].xi.z; })};
@@ -82,19 +89,11 @@ inline void evaluate_wall_batch(WallBatch& b) {
       return V3{V([&](auto l) { return base[b.i[g + l]].x; }), V([&](auto l) { return base[b.i[g + l]].y; }),
                 V([&](auto l) { return base[b.i[g + l]].z; })};
     };
-    auto param = [&](double contact::PairParams::*field) { return V([&](auto l) { return b.params[g + l]->*field; }); };
     const V ri = gather(s.radius_m), gap = ld(F::Gap);
     const contact::ContactGeometryT<V> geo = contact::sphere_wall_geometry<V>(
         ld3(F::Nx), gap, ri, gather(s.body_mass_kg), gather3(s.velocity_m_s), gather3(s.angular_velocity_rad_s),
         ld3(F::Vwx), ld3(F::Wwx));
-    contact::PairParamsT<V> p;
-    p.y_eff_pa = param(&contact::PairParams::y_eff_pa);
-    p.g_eff_pa = param(&contact::PairParams::g_eff_pa);
-    p.beta = param(&contact::PairParams::beta);
-    p.friction = param(&contact::PairParams::friction);
-    if constexpr (Rolling) p.rolling_friction = param(&contact::PairParams::rolling_friction);
-    if constexpr (Cohesion) p.cohesion_energy_density_j_m3 = param(&contact::PairParams::cohesion_energy_density_j_m3);
-    p.tangential_reduce = tangential_reduce;
+    const contact::PairParamsT<V> p = lane_params<V, Cohesion, Rolling>(b.params + g, tangential_reduce);
     contact::ContactHistoryT<V> h;
     h.xi = ld3(F::Xix);
     if constexpr (Rolling) h.m_r = ld3(F::Mrx);

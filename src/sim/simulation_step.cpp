@@ -60,6 +60,24 @@ struct alignas(64) PerThread {
   double busy_s = 0.0;
 };
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// Adds sphere i's share of the entries where it is the j side (rows in ascending order):
+/// -force_i and +torque_j.
+inline void add_reverse_entries(const neighbor::VerletList& L, std::size_t i, Vec3& f, Vec3& t) {
+  for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
+    const std::uint32_t k = L.rev_entry[q];
+    f -= L.force_i[k];
+    t += L.torque_j[k];
+  }
+}
+
+/// A wall slot whose sphere no longer touches the wall: its history is cleared.
+inline void release_wall_slot(WallContacts& wc, std::uint32_t slot) {
+  if (wc.touching[slot]) {
+    wc.touching[slot] = 0;
+    wc.history[slot] = {};
+  }
+}
 }  // namespace
 
 void Simulation::step() {
@@ -275,20 +293,13 @@ std::size_t Simulation::gather_and_walls(std::size_t i0, std::size_t i1) {
     return gather_and_wall_batches<Cohesion, Rolling>(i0, i1, evaluate);
   for (std::size_t i = i0; i < i1; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
-    for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
-      const std::uint32_t k = L.rev_entry[q];
-      f -= L.force_i[k];
-      t += L.torque_j[k];
-    }
+    add_reverse_entries(L, i, f, t);
     for (std::uint32_t slot = wc.start[i]; slot < wc.start[i + 1]; ++slot) {
       const WallSpec& ws = walls_[wc.wall[slot]];
       const double ri = s.radius_m[i];
       const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
       if (!hit.touching) {
-        if (wc.touching[slot]) {
-          wc.touching[slot] = 0;
-          wc.history[slot] = {};
-        }
+        release_wall_slot(wc, slot);
         continue;
       }
       const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
@@ -353,11 +364,7 @@ std::size_t Simulation::gather_and_wall_batches(std::size_t i0, std::size_t i1, 
   std::size_t contacts = 0;
   for (std::size_t i = i0; i < i1; ++i) {
     Vec3 f = spheres_.force_n[i], t = spheres_.torque_n_m[i];
-    for (std::uint32_t q = L.rev_start[i]; q < L.rev_start[i + 1]; ++q) {
-      const std::uint32_t k = L.rev_entry[q];
-      f -= L.force_i[k];
-      t += L.torque_j[k];
-    }
+    add_reverse_entries(L, i, f, t);
     spheres_.force_n[i] = f;
     spheres_.torque_n_m[i] = t;
     for (std::uint32_t slot = wc.start[i]; slot < wc.start[i + 1]; ++slot) {
@@ -365,10 +372,7 @@ std::size_t Simulation::gather_and_wall_batches(std::size_t i0, std::size_t i1, 
       const double ri = s.radius_m[i];
       const walls::WallHit hit = walls::wall_hit(ws.geometry, s.position_m[i], ri);
       if (!hit.touching) {
-        if (wc.touching[slot]) {
-          wc.touching[slot] = 0;
-          wc.history[slot] = {};
-        }
+        release_wall_slot(wc, slot);
         continue;
       }
       const Vec3 surface_point = s.position_m[i] - hit.gap_m * hit.normal;
