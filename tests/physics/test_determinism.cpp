@@ -179,6 +179,52 @@ TEST(Determinism, SpatialSortingDoesNotChangeTrajectories) {
   EXPECT_LT(worst_w, 1e-3);  // spins reach ~100 rad/s: 1e-5 relative
 }
 
+// The spatial sort puts the bed's longest extent first (planes across it, rows along the shortest
+// extent): the threads' blocks are contiguous index ranges, so they are then cut where the bed's
+// cross-section is smallest. A lattice box 40 x 12 x 4 mm, turned so that each axis in turn is
+// the long one, translated until the list is rebuilt (and re-sorted): along the storage order
+// the long-axis coordinate must never decrease (the lattice spacing exceeds the sort's cell, so
+// two lattice planes never share a cell). The former z-major order fails for the x- and y-long
+// boxes: it cuts a thin drum across its axis, where every sphere has a neighbour in the other
+// thread's block.
+TEST(Determinism, SpatialSortCutsAcrossTheLongestExtent) {
+  const ScopedThreads one_thread(1);
+  for (int major = 0; major < 3; ++major) {
+    SimSetup su;
+    su.particle = {5e6, 0.3, 1000.0};
+    su.wall = {5e6, 0.3, 0.0};
+    su.particle_particle = {0.5, 0.5, 0.0, 0.0};
+    su.particle_wall = {0.5, 0.5, 0.0, 0.0};
+    su.templates = {sphere_template(0.5e-3)};
+    su.dt_s = 1e-5;
+    sim::Simulation s = make_simulation(su);
+    s.set_sort_every_builds(1);
+    const double h = 1.3e-3;  // lattice spacing > sort cell (2 r + skin = 1.125 mm)
+    const int counts[3] = {30, 9, 3};  // long, middle, short (in lattice steps)
+    const int a_mid = (major + 1) % 3, a_min = (major + 2) % 3;
+    std::mt19937_64 gen(7);
+    std::vector<Vec3> sites;
+    for (int i = 0; i < counts[0]; ++i)
+      for (int j = 0; j < counts[1]; ++j)
+        for (int k = 0; k < counts[2]; ++k) {
+          Vec3 x{};
+          x[major] = i * h;
+          x[a_mid] = j * h;
+          x[a_min] = k * h;
+          sites.push_back(x);
+        }
+    std::shuffle(sites.begin(), sites.end(), gen);  // storage order unrelated to space
+    for (const Vec3& x : sites) add_particle(s, 0, x, {0.3, 0.2, 0.1});
+    for (int k = 0; k < 40; ++k) s.step();
+    ASSERT_GE(s.neighbor_list().builds(), 2u) << "no rebuild, so no re-sort";
+    const auto& x = s.bodies().position_m;
+    int descents = 0;
+    for (std::size_t q = 1; q < x.size(); ++q)
+      if (x[q][major] < x[q - 1][major] - 1e-9) ++descents;
+    EXPECT_EQ(descents, 0) << "long axis " << major << ": the storage order is not planes across it";
+  }
+}
+
 // The step's thread team after a 2-thread job must still run a 1-thread job (a scene below the
 // parallel threshold, or --threads 1 after a larger run in the same process): its barriers
 // return at once instead of waiting for a second thread.
