@@ -5,17 +5,29 @@
 namespace biodem {
 namespace {
 // How long an idle worker keeps spinning before it sleeps: longer than the driver's work between
-// two steps (a few microseconds), shorter than a list rebuild's OpenMP loops.
+// two steps (a few microseconds) and the serial parts of a list build (below 100 us at 5k spheres).
 constexpr std::chrono::microseconds kIdleSpin{200};
 // Set while this thread runs a one-thread job: its barriers return at once.
 thread_local bool tl_solo = false;
+// Set while this thread runs any job of the team.
+thread_local bool tl_in_job = false;
+struct InJob {
+  bool was = tl_in_job;
+  InJob() { tl_in_job = true; }
+  ~InJob() { tl_in_job = was; }
+};
 }  // namespace
+
+bool SpinTeam::in_job() { return tl_in_job; }
 
 void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
   if (n > 255) n = 255;
   if (n <= 1) {
     tl_solo = true;
-    job(0, 1);
+    {
+      const InJob in;
+      job(0, 1);
+    }
     tl_solo = false;
     return;
   }
@@ -34,7 +46,10 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
   const std::uint64_t next = ((generation_.load(std::memory_order_relaxed) >> 8) + 1) << 8;
   generation_.store(next | static_cast<std::uint64_t>(n), std::memory_order_release);
   generation_.notify_all();
-  job(0, n);
+  {
+    const InJob in;
+    job(0, n);
+  }
   while (finished_.load(std::memory_order_acquire) != n - 1) {
   }
   job_ = nullptr;
@@ -69,7 +84,10 @@ void SpinTeam::worker_loop(int me) {
     seen = g;
     const int n = static_cast<int>(g & 0xffu);
     if (me < n) {
-      (*job_)(me, n);
+      {
+        const InJob in;
+        (*job_)(me, n);
+      }
       finished_.fetch_add(1, std::memory_order_acq_rel);
     }
   }

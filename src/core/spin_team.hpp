@@ -6,8 +6,9 @@
 // next barrier; the same 2-thread run took 385 or 900 us/step from one launch to the next
 // (docs/performance.md). This team waits by reading an atomic in a plain loop, without PAUSE,
 // so a waiting thread stays on its core like the busy thread it is. Workers that find no work
-// for a while (kIdleSpin) sleep on the atomic (futex), so they do not compete with OpenMP loops
-// or other work between steps.
+// for a while (kIdleSpin) sleep on the atomic (futex), so they do not compete with other work
+// between steps. The parallel loops around the step (list builds, wall candidates) run on the
+// same team (for_each_index below), not on OpenMP threads that would share the cores with it.
 //
 // Use: team().run(n, job) runs job(me, n) on n threads (the caller is thread 0) and returns when
 // all have finished; inside the job, barrier() waits until all n threads reached it (at once in
@@ -15,7 +16,9 @@
 // run one after the other. The work each thread does is decided by `me` only, so results do not depend on
 // which OS thread runs what.
 #pragma once
+#include <algorithm>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <mutex>
@@ -30,6 +33,8 @@ class SpinTeam {
   void run(int n, const std::function<void(int, int)>& job);
   /// Called by all n threads of the current job: returns when all have called it.
   void barrier();
+  /// Whether the calling thread is running a job of the team (where run() must not be called).
+  static bool in_job();
 
  private:
   void worker_loop(int me);
@@ -45,5 +50,27 @@ class SpinTeam {
 
 /// The process-wide team (created on first use, never destroyed: its threads are detached).
 SpinTeam& team();
+
+/// Runs f(k) for k = 0..count-1 on `threads` threads of the team, each taking the next k when it
+/// is done with one (the caller is one of them; one thread: a plain loop). f must write disjoint
+/// outputs, so that the result does not depend on which thread ran which k. Called inside a job
+/// of the team, it runs the loop on the calling thread. Used for the
+/// parallel loops around the step (list builds, wall candidates) instead of OpenMP: the team's
+/// workers are spinning there anyway, while OpenMP's would have to be woken and would share the
+/// cores with them.
+template <class F>
+void for_each_index(int threads, std::size_t count, F&& f) {
+  if (threads <= 1 || count <= 1 || SpinTeam::in_job()) {  // (inside a job: jobs do not nest)
+    for (std::size_t k = 0; k < count; ++k) f(k);
+    return;
+  }
+  std::atomic<std::size_t> next{0};
+  const int n = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(threads), count));
+  team().run(n, [&](int, int) {
+    for (std::size_t k = next.fetch_add(1, std::memory_order_relaxed); k < count;
+         k = next.fetch_add(1, std::memory_order_relaxed))
+      f(k);
+  });
+}
 
 }  // namespace biodem

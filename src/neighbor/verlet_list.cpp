@@ -4,8 +4,11 @@
 #include <cmath>
 #include <numeric>
 
+#include <omp.h>
+
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/spin_team.hpp"
 
 namespace biodem::neighbor {
 namespace {
@@ -150,23 +153,25 @@ void VerletList::build(const state::SphereStore& s) {
   scan_x_.resize(n);
   scan_r_.resize(n);
   scan_body_.resize(n);
-  for (std::size_t p = 0; p < n; ++p) {
-    const std::uint32_t q = g.items[p];
-    scan_x_[p] = s.position_m[q];
-    scan_r_[p] = s.radius_m[q];
-    scan_body_[p] = s.body[q];
-  }
+  constexpr std::size_t kChunk = 256;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  const int threads = n >= kParallelThreshold ? omp_get_max_threads() : 1;
+  for_each_index(threads, chunks, [&](std::size_t c) {
+    for (std::size_t p = c * kChunk; p < std::min(n, (c + 1) * kChunk); ++p) {
+      const std::uint32_t q = g.items[p];
+      scan_x_[p] = s.position_m[q];
+      scan_r_[p] = s.radius_m[q];
+      scan_body_[p] = s.body[q];
+    }
+  });
   const bool periodic = domain_.any_periodic();
 
   // Pass 1: the rows of each chunk of spheres into the chunk's buffer (kept from build to build:
   // no allocation once the buffers have grown), each row sorted by j; row_len_ holds their sizes.
-  constexpr std::size_t kChunk = 256;
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
   if (chunk_rows_.size() < chunks) chunk_rows_.resize(chunks);
   row_len_.resize(n);
-#pragma omp parallel for proc_bind(close) schedule(dynamic, 1) if (n >= kParallelThreshold)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    auto& buf = chunk_rows_[c];
+  for_each_index(threads, chunks, [&](std::size_t c) {
+    auto& buf = chunk_rows_[c].rows;
     buf.clear();
     const std::size_t i1 = std::min(n, (c + 1) * kChunk);
     for (std::size_t i = c * kChunk; i < i1; ++i) {
@@ -195,24 +200,31 @@ void VerletList::build(const state::SphereStore& s) {
                 [](const RowEntry& a, const RowEntry& b) { return a.j != b.j ? a.j < b.j : a.image < b.image; });
       row_len_[i] = static_cast<std::uint32_t>(buf.size() - row0);
     }
-  }
+  });
 
   // Pass 2: CSR, carrying history over from the previous list (rows sorted by j: merge).
   std::vector<std::uint32_t> new_start(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) new_start[i + 1] = new_start[i] + row_len_[i];
   const std::size_t m = new_start[n];
-  std::vector<std::uint32_t> new_j(m);
-  std::vector<std::int32_t> new_image(m);
-  std::vector<contact::ContactHistory> new_hist(m);
-  std::vector<std::uint8_t> new_touch(m, 0);
+  // The new arrays reuse the previous build's (kept as spares): every element is written below,
+  // by the parallel merge, so nothing is cleared serially here.
+  std::vector<std::uint32_t>& new_j = spare_j_;
+  std::vector<std::int32_t>& new_image = spare_image_;
+  std::vector<contact::ContactHistory>& new_hist = spare_history_;
+  std::vector<std::uint8_t>& new_touch = spare_touching_;
+  new_j.resize(m);
+  new_image.resize(m);
+  new_hist.resize(m);
+  new_touch.resize(m);
+  force_i.resize(m);
+  torque_j.resize(m);
   // Spheres added since the last build (an insertion wave) are appended: the old spheres keep
   // their indices, so the old rows (i < n_old, j < n_old) still name the same pairs and their
   // history carries over. Any other change of count goes through renumber() first.
   const std::size_t n_old = row_start.empty() ? 0 : row_start.size() - 1;
   const bool had_old = n_old > 0 && n_old <= n;
-#pragma omp parallel for proc_bind(close) schedule(dynamic, 1) if (n >= kParallelThreshold)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    const auto& buf = chunk_rows_[c];
+  for_each_index(threads, chunks, [&](std::size_t c) {
+    const auto& buf = chunk_rows_[c].rows;
     std::size_t from = 0;
     const std::size_t i1 = std::min(n, (c + 1) * kChunk);
     for (std::size_t i = c * kChunk; i < i1; ++i) {
@@ -223,20 +235,19 @@ void VerletList::build(const state::SphereStore& s) {
         new_j[k] = buf[from].j;
         new_image[k] = buf[from].image;
         while (o < o_end && j[o] < new_j[k]) ++o;
-        if (o < o_end && j[o] == new_j[k] && touching[o]) {
-          new_hist[k] = history[o];
-          new_touch[k] = 1;
-        }
+        const bool carried = o < o_end && j[o] == new_j[k] && touching[o];
+        new_hist[k] = carried ? history[o] : contact::ContactHistory{};
+        new_touch[k] = carried ? 1 : 0;
+        force_i[k] = Vec3{};
+        torque_j[k] = Vec3{};
       }
     }
-  }
+  });
   row_start.swap(new_start);
   j.swap(new_j);
   image.swap(new_image);
   history.swap(new_hist);
   touching.swap(new_touch);
-  force_i.assign(m, Vec3{});
-  torque_j.assign(m, Vec3{});
 
   // Reverse index (entries sorted by row, so each sphere's list is in ascending i order).
   rev_start.assign(n + 1, 0);

@@ -89,8 +89,18 @@ class VerletList {
     std::uint32_t j;
     std::int32_t image;
   };
-  std::vector<std::vector<RowEntry>> chunk_rows_;
+  // One cache line per chunk's vector: the threads push into neighbouring chunks at once, and
+  // vector headers sharing a line made every push_back a transfer between cores.
+  struct alignas(64) ChunkRows {
+    std::vector<RowEntry> rows;
+  };
+  std::vector<ChunkRows> chunk_rows_;
   std::vector<std::uint32_t> row_len_;
+  // The arrays of the build before the last one, reused by the next build.
+  std::vector<std::uint32_t> spare_j_;
+  std::vector<std::int32_t> spare_image_;
+  std::vector<contact::ContactHistory> spare_history_;
+  std::vector<std::uint8_t> spare_touching_;
   std::vector<Vec3> scan_x_;
   std::vector<double> scan_r_;
   std::vector<std::uint32_t> scan_body_;

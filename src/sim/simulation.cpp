@@ -7,8 +7,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include <omp.h>
+
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/spin_team.hpp"
 #include "integrate/rigid_rotation.hpp"
 #include "neighbor/skin.hpp"
 
@@ -112,8 +115,10 @@ void Simulation::place_spheres_of(std::size_t b) {
 void Simulation::update_spheres_from_bodies() {
   spheres_stale_ = false;
   const std::size_t nb = bodies_.size();
-#pragma omp parallel for proc_bind(close) schedule(static) if (nb >= kParallelThreshold)
-  for (std::size_t b = 0; b < nb; ++b) place_spheres_of(b);
+  constexpr std::size_t kChunk = 256;
+  for_each_index(nb >= kParallelThreshold ? omp_get_max_threads() : 1, (nb + kChunk - 1) / kChunk, [&](std::size_t c) {
+    for (std::size_t b = c * kChunk; b < std::min(nb, (c + 1) * kChunk); ++b) place_spheres_of(b);
+  });
 }
 
 void Simulation::refresh() {

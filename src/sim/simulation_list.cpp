@@ -6,8 +6,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include <omp.h>
+
 #include "core/error.hpp"
 #include "core/parallel.hpp"
+#include "core/spin_team.hpp"
 
 namespace biodem::sim {
 
@@ -195,36 +198,43 @@ void Simulation::update_wall_candidates() {
     return -1;
   };
   // Pass 1: count the candidates of each sphere; pass 2: fill them, carrying the history over.
+  // Chunks of spheres on the step's thread team (core/spin_team.hpp: its workers are spinning).
+  constexpr std::size_t kChunk = 256;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  const int threads = n >= kParallelThreshold ? omp_get_max_threads() : 1;
   std::vector<std::uint32_t> count(n + 1, 0);
-#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t c = 0;
-    for (std::size_t w = 0; w < nw; ++w) {
-      const std::int64_t k = old_slot(i, w);
-      if (candidate(i, w) || (k >= 0 && old.touching[k])) ++c;
+  for_each_index(threads, chunks, [&](std::size_t ch) {
+    for (std::size_t i = ch * kChunk; i < std::min(n, (ch + 1) * kChunk); ++i) {
+      std::uint32_t c = 0;
+      for (std::size_t w = 0; w < nw; ++w) {
+        const std::int64_t k = old_slot(i, w);
+        if (candidate(i, w) || (k >= 0 && old.touching[k])) ++c;
+      }
+      count[i + 1] = c;
     }
-    count[i + 1] = c;
-  }
+  });
   WallContacts wc;
   wc.start.assign(n + 1, 0);
   for (std::size_t i = 0; i < n; ++i) wc.start[i + 1] = wc.start[i] + count[i + 1];
   wc.wall.resize(wc.start[n]);
   wc.history.assign(wc.start[n], {});
   wc.touching.assign(wc.start[n], 0);
-#pragma omp parallel for proc_bind(close) schedule(static) if (n >= kParallelThreshold)
-  for (std::size_t i = 0; i < n; ++i) {
-    std::uint32_t q = wc.start[i];
-    for (std::size_t w = 0; w < nw; ++w) {
-      const std::int64_t k = old_slot(i, w);
-      if (!(candidate(i, w) || (k >= 0 && old.touching[k]))) continue;
-      wc.wall[q] = static_cast<std::uint32_t>(w);
-      if (k >= 0) {
-        wc.history[q] = old.history[k];
-        wc.touching[q] = old.touching[k];
+for_each_index(threads, chunks, [&](std::size_t ch) {
+    for (std::size_t i = ch * kChunk; i < std::min(n, (ch + 1) * kChunk); ++i) {
+      std::uint32_t q = wc.start[i];
+      for (std::size_t w = 0; w < nw; ++w) {
+        const std::int64_t k = old_slot(i, w);
+        if (!(candidate(i, w) || (k >= 0 && old.touching[k]))) continue;
+        wc.wall[q] = static_cast<std::uint32_t>(w);
+        if (k >= 0) {
+          wc.history[q] = old.history[k];
+          wc.touching[q] = old.touching[k];
+        }
+        ++q;
       }
-      ++q;
     }
-  }
+  });
+
   wall_contacts_ = std::move(wc);
 }
 }  // namespace biodem::sim

@@ -1,0 +1,80 @@
+// The step's thread team (core/spin_team.hpp): jobs, barriers, and for_each_index, which runs the
+// list build's and the wall candidates' loops on the team instead of OpenMP.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+#include <vector>
+
+#include "core/spin_team.hpp"
+
+using namespace biodem;
+
+// Every index exactly once, for team sizes above, at and below the count, and for empty loops.
+TEST(SpinTeam, ForEachIndexVisitsEveryIndexOnce) {
+  for (int threads : {1, 2, 3, 4}) {
+    for (std::size_t count : {std::size_t{0}, std::size_t{1}, std::size_t{3}, std::size_t{1000}}) {
+      std::vector<std::atomic<int>> hits(count);
+      for_each_index(threads, count, [&](std::size_t k) { hits[k].fetch_add(1, std::memory_order_relaxed); });
+      int wrong = 0;
+      for (const auto& h : hits) wrong += h.load() != 1;
+      EXPECT_EQ(wrong, 0) << threads << " threads, " << count << " indices";
+    }
+  }
+}
+
+// With several threads the work is shared: a loop whose items wait for each other can only end
+// if two threads run it at once (one thread would wait forever; the test gives up after 10 s).
+TEST(SpinTeam, ForEachIndexRunsOnSeveralThreads) {
+  std::atomic<int> started{0};
+  std::atomic<bool> gave_up{false};
+  for_each_index(2, 2, [&](std::size_t) {
+    started.fetch_add(1);
+    const auto t0 = std::chrono::steady_clock::now();
+    while (started.load() < 2) {
+      if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(10)) {
+        gave_up = true;
+        return;
+      }
+    }
+  });
+  EXPECT_FALSE(gave_up.load()) << "the two items did not run at the same time";
+}
+
+// Inside a job of the team, for_each_index runs on the calling thread (jobs do not nest; a
+// nested run() would wait for the mutex its own job holds).
+TEST(SpinTeam, ForEachIndexInsideAJobRunsOnTheCallingThread) {
+  std::vector<std::atomic<int>> foreign(2);
+  std::vector<std::atomic<int>> hits(2 * 50);
+  team().run(2, [&](int me, int) {
+    const auto self = std::this_thread::get_id();
+    for_each_index(2, 50, [&](std::size_t k) {
+      if (std::this_thread::get_id() != self) foreign[me].fetch_add(1);
+      hits[static_cast<std::size_t>(me) * 50 + k].fetch_add(1);
+    });
+  });
+  EXPECT_EQ(foreign[0].load() + foreign[1].load(), 0);
+  int wrong = 0;
+  for (const auto& h : hits) wrong += h.load() != 1;
+  EXPECT_EQ(wrong, 0);
+  EXPECT_FALSE(SpinTeam::in_job());
+}
+
+// A barrier holds every thread until all have arrived: what each wrote before it is seen by all
+// after it, over many rounds.
+TEST(SpinTeam, BarrierSeparatesRounds) {
+  constexpr int kThreads = 3, kRounds = 50;
+  std::vector<std::atomic<int>> value(kThreads);
+  std::atomic<int> errors{0};
+  team().run(kThreads, [&](int me, int n) {
+    for (int r = 1; r <= kRounds; ++r) {
+      value[me].store(r, std::memory_order_relaxed);
+      team().barrier();
+      for (int t = 0; t < n; ++t)
+        if (value[t].load(std::memory_order_relaxed) != r) errors.fetch_add(1);
+      team().barrier();
+    }
+  });
+  EXPECT_EQ(errors.load(), 0);
+}
