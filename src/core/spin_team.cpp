@@ -46,13 +46,21 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
   const std::uint64_t next = ((generation_.load(std::memory_order_relaxed) >> 8) + 1) << 8;
   generation_.store(next | static_cast<std::uint64_t>(n), std::memory_order_release);
   generation_.notify_all();
-  {
+  auto wait_for_workers = [&] {
+    while (finished_.load(std::memory_order_acquire) != n - 1) {
+    }
+    job_ = nullptr;
+  };
+  try {
     const InJob in;
     job(0, n);
+  } catch (...) {
+    // The workers still run the job (its data live in the caller's frame): let them finish
+    // before the exception leaves. (A job that uses barrier() must not throw on one thread only.)
+    wait_for_workers();
+    throw;
   }
-  while (finished_.load(std::memory_order_acquire) != n - 1) {
-  }
-  job_ = nullptr;
+  wait_for_workers();
 }
 
 void SpinTeam::barrier() {

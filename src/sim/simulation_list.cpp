@@ -219,7 +219,7 @@ void Simulation::update_wall_candidates() {
   wc.wall.resize(wc.start[n]);
   wc.history.assign(wc.start[n], {});
   wc.touching.assign(wc.start[n], 0);
-for_each_index(threads, chunks, [&](std::size_t ch) {
+  for_each_index(threads, chunks, [&](std::size_t ch) {
     for (std::size_t i = ch * kChunk; i < std::min(n, (ch + 1) * kChunk); ++i) {
       std::uint32_t q = wc.start[i];
       for (std::size_t w = 0; w < nw; ++w) {
