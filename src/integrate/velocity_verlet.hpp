@@ -16,20 +16,30 @@ BIODEM_HD inline bool spins_as_sphere(std::uint32_t sphere_count, const Vec3& in
   return sphere_count == 1 && inertia.x == inertia.y && inertia.y == inertia.z;
 }
 
-/// First half kick (dt/2 of force and torque) and drift over dt: position, and orientation with
-/// the angular velocity it ends with.
-BIODEM_HD inline void kick_and_drift(Vec3& x, Vec3& v, Vec3& omega, Vec3& l, Quat& q, double mass, const Vec3& inertia,
-                                     std::uint32_t sphere_count, const Vec3& force, const Vec3& torque, double h,
-                                     double dt) {
+/// kick_and_drift without the free-rotor turn: the half kicks and the drift of the position, and
+/// a single sphere's spin. Returns false for a body that must still turn by
+/// free_rotation_step(q, l, inertia, dt) (the CPU engine turns several such bodies at once).
+BIODEM_HD inline bool kick_and_drift_but_turn(Vec3& x, Vec3& v, Vec3& omega, Vec3& l, double mass, const Vec3& inertia,
+                                              std::uint32_t sphere_count, const Vec3& force, const Vec3& torque,
+                                              double h, double dt) {
   const double inv_m = 1.0 / mass;
   v += (h * inv_m) * force;
   x += dt * v;
   if (spins_as_sphere(sphere_count, inertia)) {
     omega += (h / inertia.x) * torque;
-  } else {
-    l += h * torque;
-    omega = free_rotation_step(q, l, inertia, dt);
+    return true;
   }
+  l += h * torque;
+  return false;
+}
+
+/// First half kick (dt/2 of force and torque) and drift over dt: position, and orientation with
+/// the angular velocity it ends with.
+BIODEM_HD inline void kick_and_drift(Vec3& x, Vec3& v, Vec3& omega, Vec3& l, Quat& q, double mass, const Vec3& inertia,
+                                     std::uint32_t sphere_count, const Vec3& force, const Vec3& torque, double h,
+                                     double dt) {
+  if (!kick_and_drift_but_turn(x, v, omega, l, mass, inertia, sphere_count, force, torque, h, dt))
+    omega = free_rotation_step(q, l, inertia, dt);
 }
 
 /// Second half kick (dt/2 of the new force and torque).

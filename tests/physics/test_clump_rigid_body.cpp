@@ -17,10 +17,13 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "core/small_angle.hpp"
+#include "integrate/rigid_rotation.hpp"
 #include "physics_support.hpp"
 
 using namespace biodem;
@@ -221,4 +224,32 @@ TEST(ClumpFreeRotation, AsymmetricClumpConservesMomentumAndEnergyAndFollowsEuler
   EXPECT_LT(w2_min, 0.0);  // it did tumble, so the test exercised the unstable regime
   EXPECT_GT(w2_max, 0.0);
   EXPECT_EQ(s.bodies().position_m[0], Vec3{});
+}
+
+// The CPU engine turns clumps four at a time (integrate::free_rotation_steps<4>, in lockstep so
+// that their dependent chains overlap): every body must get the bits it gets alone
+// (free_rotation_step), whatever the others are: different inertias, a body at rest, and one
+// whose half angle exceeds the small-angle series (the library's sine and cosine). Tolerance:
+// none.
+TEST(ClumpFreeRotation, FourBodiesInLockstepGiveEachBodysBitsAlone) {
+  const double h = 1e-4;
+  Quat q[4] = {normalized(Quat{0.9, 0.1, -0.3, 0.2}), Quat{}, normalized(Quat{0.2, 0.7, 0.1, -0.6}),
+               normalized(Quat{-0.5, 0.5, 0.5, 0.5})};
+  const Vec3 l[4] = {{1e-9, -2e-9, 3e-9}, {0.0, 0.0, 0.0}, {4e-8, 1e-8, -2e-8}, {3e-3, -1e-3, 2e-3}};
+  const Vec3 inertia[4] = {{1e-10, 2e-10, 3e-10}, {1e-10, 1e-10, 1e-10}, {5e-11, 5e-11, 2e-10}, {1e-9, 2e-9, 3e-9}};
+  Quat alone_q[4];
+  Vec3 alone_w[4];
+  for (int n = 0; n < 4; ++n) {
+    alone_q[n] = q[n];
+    alone_w[n] = integrate::free_rotation_step(alone_q[n], l[n], inertia[n], h);
+  }
+  // The last body turns by about h |l| / I ~ 1 rad per sub-step: beyond the small-angle series.
+  EXPECT_GT(0.5 * h * l[3].x / inertia[3].x, kSmallAngleMax);
+  Vec3 w[4];
+  integrate::free_rotation_steps<4>(q, l, inertia, h, w);
+  for (int n = 0; n < 4; ++n) {
+    EXPECT_EQ(std::memcmp(&q[n], &alone_q[n], sizeof(Quat)), 0) << "body " << n << ": orientation";
+    EXPECT_EQ(std::memcmp(&w[n], &alone_w[n], sizeof(Vec3)), 0) << "body " << n << ": angular velocity";
+  }
+  EXPECT_GT(std::abs(alone_q[0].x - normalized(Quat{0.9, 0.1, -0.3, 0.2}).x), 0.0) << "body 0 did not turn";
 }
