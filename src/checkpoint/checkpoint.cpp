@@ -398,6 +398,7 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   sim.restore_after_checkpoint(time, steps, rotating, skin, std::move(built_at), builds);
   sim.set_contact_count(static_cast<std::size_t>(contacts));
   check_consistency(sim, path);
+  sim.neighbor_list_mut().index_rows();  // derived from the rows, not stored
   return rp;
 }
 

@@ -213,6 +213,7 @@ void VerletList::build(const state::SphereStore& s) {
   std::vector<contact::ContactHistory>& new_hist = spare_history_;
   std::vector<std::uint8_t>& new_touch = spare_touching_;
   new_j.resize(m);
+  row_of.resize(m);
   new_image.resize(m);
   new_hist.resize(m);
   new_touch.resize(m);
@@ -234,6 +235,7 @@ void VerletList::build(const state::SphereStore& s) {
       for (std::size_t k = new_start[i]; k < new_start[i + 1]; ++k, ++from) {
         new_j[k] = buf[from].j;
         new_image[k] = buf[from].image;
+        row_of[k] = static_cast<std::uint32_t>(i);
         while (o < o_end && j[o] < new_j[k]) ++o;
         const bool carried = o < o_end && j[o] == new_j[k] && touching[o];
         new_hist[k] = carried ? history[o] : contact::ContactHistory{};
@@ -270,6 +272,7 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
   if (n_old > n) {
     row_start.clear();
     j.clear();
+    row_of.clear();
     image.clear();
     history.clear();
     touching.clear();
@@ -313,7 +316,15 @@ void VerletList::renumber(const std::vector<std::uint32_t>& new_of_old) {
     image[k] = kept[k].image;
     history[k] = kept[k].h;
   }
+  index_rows();
   built_at_.clear();  // forces a rebuild
+}
+
+void VerletList::index_rows() {
+  row_of.resize(j.size());
+  const std::size_t n = row_start.empty() ? 0 : row_start.size() - 1;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::uint32_t k = row_start[i]; k < row_start[i + 1]; ++k) row_of[k] = static_cast<std::uint32_t>(i);
 }
 
 bool VerletList::needs_rebuild(const state::SphereStore& s) const {

@@ -42,6 +42,8 @@ class VerletList {
   /// order flips (new i > new j) has its history negated: history is stored from i's side.
   /// A sphere mapped to kRemoved is gone (its pairs are dropped).
   void renumber(const std::vector<std::uint32_t>& new_of_old);
+  /// Fills row_of from row_start (row_start must be valid: non-decreasing, ending at j.size()).
+  void index_rows();
   static constexpr std::uint32_t kRemoved = 0xFFFFFFFFu;
   /// True when some sphere moved more than half the skin since the last build.
   bool needs_rebuild(const state::SphereStore& spheres) const;
@@ -71,6 +73,10 @@ class VerletList {
   // CSR rows (size n+1) and per-entry data.
   std::vector<std::uint32_t> row_start;
   std::vector<std::uint32_t> j;
+  // The row (sphere i) of each entry: derived from row_start by index_rows(), which build() and
+  // renumber() call, and a checkpoint load after it restores the rows. The pair pass walks the
+  // entries of a range of rows in one flat loop with it (no branch at each row's end).
+  std::vector<std::uint32_t> row_of;
   std::vector<std::int32_t> image;
   std::vector<contact::ContactHistory> history;
   std::vector<std::uint8_t> touching;

@@ -67,73 +67,83 @@ class LaneRows {
   LaneRows(const PairPassData& d, Evaluate evaluate) : d_(d), evaluate_(evaluate) { b_.data = &d; }
 
   std::size_t run(std::size_t i0, std::size_t i1) {
-    // Everything the staging loop reads is held in locals: the release of an ended contact
-    // stores bytes, which may alias any memory, so members would be reloaded on every entry.
+    return d_.periodic ? stage_rows<true>(i0, i1) : stage_rows<false>(i0, i1);
+  }
+
+ private:
+  template <bool Periodic>
+  std::size_t stage_rows(std::size_t i0, std::size_t i1) {
+    // What the staging loop reads is held in locals, and it stores no bytes (which may alias
+    // anything and would make the compiler reload): contacts that ended are noted in `ended_`
+    // and released after the loop or when the note is full. The batch's arrays are addressed
+    // from this object (one register for all of them, none spilled).
     auto& L = *d_.list;
-    const std::uint32_t* const row_start = L.row_start.data();
     const std::uint32_t* const jv = L.j.data();
+    const std::uint32_t* const row_of = L.row_of.data();
     const std::uint8_t* const was_touching = L.touching.data();
     const Vec3* const pos = d_.position_m;
     const double* const rad = d_.radius_m;
     const auto* const mat = d_.material;
-    const contact::PairTable& pairs = *d_.pairs;
-    const bool periodic = d_.periodic;
+    const contact::PairParams* const table = &(*d_.pairs)(0, 0);
+    const std::size_t n_materials = d_.pairs->materials();
     using F = PairBatch;
-    double* const sx = b_.a[F::Dx];
-    double* const sy = b_.a[F::Dy];
-    double* const sz = b_.a[F::Dz];
-    double* const s2 = b_.a[F::Dist2];
-    std::uint32_t* const si = b_.i;
-    std::uint32_t* const sj = b_.j;
-    std::uint32_t* const sk = b_.k;
-    const contact::PairParams** const sp = b_.params;
-    std::size_t contacts = 0;
-    int n = 0;
-    for (std::size_t i = i0; i < i1; ++i) {
-      const Vec3 xi = pos[i];
-      const double ri = rad[i];
-      const auto mi = mat[i];
-      d_.force_n[i] = {};  // the batch's scatter adds the row's contacts in entry order
+    for (std::size_t i = i0; i < i1; ++i) {  // the scatter adds each row's contacts in entry order
+      d_.force_n[i] = {};
       d_.torque_n_m[i] = {};
-      const std::uint32_t k1 = row_start[i + 1];
-      for (std::uint32_t k = row_start[i]; k < k1; ++k) {
-        const std::uint32_t j = jv[k];
-        Vec3 dij = xi - pos[j];
-        if (periodic) dij -= L.shift(k);
-        const double rsum = ri + rad[j];
-        const double dist2 = norm2(dij);
-        // Without a branch on the distance test (about half the entries touch, so it would be
-        // mispredicted often): every entry is written to the next slot, which only a touching
-        // entry keeps.
-        const bool touch = dist2 < rsum * rsum;
-        sx[n] = dij.x;
-        sy[n] = dij.y;
-        sz[n] = dij.z;
-        s2[n] = dist2;
-        si[n] = static_cast<std::uint32_t>(i);
-        sj[n] = j;
-        sk[n] = k;
-        sp[n] = &pairs(mi, mat[j]);
-        n += touch;
-        contacts += touch;
-        if (static_cast<bool>(was_touching[k]) & !touch) release_entry(L, k);  // rare: a contact ended
-        if (n == PairBatch::kCapacity) {
-          b_.n = n;
-          flush();
-          n = 0;
-        }
+    }
+    staged_ = 0;
+    int n = 0, n_ended = 0;
+    // One flat loop over the rows' entries, i read from row_of: rows are short (3-6 entries in a
+    // bed with the default skin), and a loop per row mispredicted its exit once per row.
+    const std::uint32_t k1 = L.row_start[i1];
+    for (std::uint32_t k = L.row_start[i0]; k < k1; ++k) {
+      const std::uint32_t i = row_of[k], j = jv[k];
+      Vec3 dij = pos[i] - pos[j];
+      if constexpr (Periodic) dij -= L.shift(k);
+      const double rsum = rad[i] + rad[j];
+      const double dist2 = norm2(dij);
+      // Without a branch on the distance test (about half the entries touch, so it would be
+      // mispredicted often): every entry is written to the next slot, which only a touching
+      // entry keeps; likewise every entry to the next slot of `ended_`.
+      const bool touch = dist2 < rsum * rsum;
+      b_.a[F::Dx][n] = dij.x;
+      b_.a[F::Dy][n] = dij.y;
+      b_.a[F::Dz][n] = dij.z;
+      b_.a[F::Dist2][n] = dist2;
+      b_.i[n] = i;
+      b_.j[n] = j;
+      b_.k[n] = k;
+      b_.params[n] = table + mat[i] * n_materials + mat[j];
+      n += touch;
+      ended_[n_ended] = k;
+      n_ended += static_cast<int>(static_cast<bool>(was_touching[k]) & !touch);
+      if (n == PairBatch::kCapacity) {
+        b_.n = n;
+        flush();
+        n = 0;
+      }
+      if (n_ended == kEnded) {
+        release(n_ended);
+        n_ended = 0;
       }
     }
     b_.n = n;
     flush();
-    return contacts;
+    release(n_ended);
+    return staged_;
   }
 
- private:
+  /// The entries noted in `ended`: contacts that ended this step (their history and stored
+  /// results are cleared).
+  void release(int n_ended) {
+    for (int e = 0; e < n_ended; ++e) release_entry(*d_.list, ended_[e]);
+  }
+
 
   void flush() {
     const int n = b_.n;
     if (n == 0) return;
+    staged_ += static_cast<std::size_t>(n);
     // Pad to a multiple of the widest lane count with copies of the last contact (results unused).
     for (int s = n; s % 8 != 0; ++s) {
       for (int f = PairBatch::Dx; f <= PairBatch::Dist2; ++f) b_.a[f][s] = b_.a[f][n - 1];
@@ -145,24 +155,45 @@ class LaneRows {
     evaluate_(b_);
     using F = PairBatch;
     auto& L = *d_.list;
+    std::uint8_t* const touching = L.touching.data();
+    Vec3* const force_i = L.force_i.data();
+    Vec3* const torque_j = L.torque_j.data();
+    contact::ContactHistory* const history = L.history.data();
+    // Row i's sums are kept in registers while its contacts follow one another (the same
+    // additions in the same order as adding to force_n[i] in memory, without a store-to-load
+    // chain per contact); a row continued from the previous batch starts from its stored sum.
+    std::uint32_t row = b_.i[0];
+    Vec3 f_row = d_.force_n[row], t_row = d_.torque_n_m[row];
     for (int s = 0; s < n; ++s) {
       auto get3 = [&](int f) { return Vec3{b_.a[f][s], b_.a[f + 1][s], b_.a[f + 2][s]}; };
       const std::uint32_t k = b_.k[s], i = b_.i[s];
+      if (i != row) {
+        d_.force_n[row] = f_row;
+        d_.torque_n_m[row] = t_row;
+        row = i;
+        f_row = d_.force_n[i];
+        t_row = d_.torque_n_m[i];
+      }
       const Vec3 f_i = get3(F::Fx);
-      L.touching[k] = 1;
-      L.force_i[k] = f_i;
-      L.torque_j[k] = get3(F::Tjx);
-      L.history[k].xi = get3(F::Xix);
-      if constexpr (Rolling) L.history[k].m_r = get3(F::Mrx);
-      d_.force_n[i] += f_i;
-      d_.torque_n_m[i] += get3(F::Tix);
+      touching[k] = 1;
+      force_i[k] = f_i;
+      torque_j[k] = get3(F::Tjx);
+      history[k].xi = get3(F::Xix);
+      if constexpr (Rolling) history[k].m_r = get3(F::Mrx);
+      f_row += f_i;
+      t_row += get3(F::Tix);
     }
+    d_.force_n[row] = f_row;
+    d_.torque_n_m[row] = t_row;
     b_.n = 0;
   }
 
+  static constexpr int kEnded = 64;
   const PairPassData& d_;
   Evaluate evaluate_;
   PairBatch b_;
+  std::uint32_t ended_[kEnded];
+  std::size_t staged_ = 0;  // touching contacts of this call
 };
 
 bool cpu_has(PairKernel k) {

@@ -12,7 +12,13 @@ namespace biodem::sim {
 /// The pair parameters of W contacts, one per lane (pair and wall batches).
 template <class V, bool Cohesion, bool Rolling>
 inline contact::PairParamsT<V> lane_params(const contact::PairParams* const* params, bool tangential_reduce) {
-  auto param = [&](double contact::PairParams::*field) { return V([&](auto l) { return params[l]->*field; }); };
+  // Most cases have one pair of materials, or contacts of one pair in a row: when the W lanes
+  // share one parameter set, each field is broadcast instead of gathered lane by lane.
+  bool shared = true;
+  for (std::size_t l = 1; l < V::size(); ++l) shared &= params[l] == params[0];
+  auto param = [&](double contact::PairParams::*field) {
+    return shared ? V(params[0]->*field) : V([&](auto l) { return params[l]->*field; });
+  };
   contact::PairParamsT<V> p;
   p.y_eff_pa = param(&contact::PairParams::y_eff_pa);
   p.g_eff_pa = param(&contact::PairParams::g_eff_pa);
