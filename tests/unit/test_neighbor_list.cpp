@@ -121,7 +121,17 @@ Domain make_domain(std::array<bool, 3> periodic) {
   return d;
 }
 
+/// row_of names each entry's row (the pair pass walks the entries with it).
+void check_row_of(const VerletList& L) {
+  ASSERT_EQ(L.row_of.size(), L.j.size());
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i + 1 < L.row_start.size(); ++i)
+    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) wrong += L.row_of[k] != i;
+  EXPECT_EQ(wrong, 0u);
+}
+
 void check_list(const VerletList& L, const state::SphereStore& s, const Domain& dom) {
+  check_row_of(L);
   const PairList brute = brute_force_overlaps(s, dom);
   // The engine's reference agrees with the independent 27-image brute force.
   EXPECT_EQ(brute, brute_force_within(s, dom, 0.0));
@@ -286,6 +296,8 @@ TEST(VerletList, RenumberKeepsHistoryUnderNewIndices) {
       p.body[new_of_old[i]] = s.body[i];
     }
     L.renumber(new_of_old);
+    check_row_of(L);  // the renumbered rows (touching pairs only) until the rebuild
+    EXPECT_GT(L.j.size(), 0u);
     EXPECT_TRUE(L.needs_rebuild(p));
     L.build(p);
     check_list(L, p, dom);
