@@ -6,7 +6,7 @@
 #include "contact/contact_model.hpp"
 #include "core/lanes_simd.hpp"
 #include "sim/pair_pass.hpp"
-#if defined(__AVX512F__)
+#if defined(__AVX__)
 #include <immintrin.h>
 #endif
 
@@ -15,7 +15,8 @@ namespace biodem::sim {
 /// The three doubles at base + stride * idx[l] (a Vec3 of an array of structures) for each
 /// lane l, as x, y and z lanes. Data movement only, so every kernel gets the same bits. With 8
 /// lanes (AVX-512F): eight masked loads of three doubles (the masked-out lanes are not read),
-/// interleaved by two unpacks and three permutes, instead of 24 loads and 21 inserts.
+/// interleaved by four unpacks and three permutes, instead of 24 loads and 21 inserts; with 4
+/// lanes (AVX), four masked loads, four unpacks and three lane permutes.
 static_assert(sizeof(Vec3) == 3 * sizeof(double) && sizeof(contact::ContactHistory) % sizeof(double) == 0,
               "gather3 reads Vec3 and ContactHistory as arrays of doubles");
 
@@ -41,6 +42,19 @@ inline Vec3T<V> gather3(const double* base, std::size_t stride, const std::uint3
     const __m512i second = _mm512_setr_epi64(2, 6, 3, 7, 10, 14, 11, 15);
     return {V(_mm512_permutex2var_pd(t0, first, t2)), V(_mm512_permutex2var_pd(t1, first, t3)),
             V(_mm512_permutex2var_pd(t0, second, t2))};
+  }
+#endif
+#if defined(__AVX__)
+  if constexpr (V::size() == 4) {
+    const __m256i xyz = _mm256_setr_epi64x(-1, -1, -1, 0);
+    auto load = [&](int l) { return _mm256_maskload_pd(base + stride * idx[l], xyz); };  // x y z 0
+    const __m256d r0 = load(0), r1 = load(1), r2 = load(2), r3 = load(3);
+    const __m256d t0 = _mm256_unpacklo_pd(r0, r1);  // x0 x1 z0 z1
+    const __m256d t1 = _mm256_unpackhi_pd(r0, r1);  // y0 y1 0 0
+    const __m256d t2 = _mm256_unpacklo_pd(r2, r3);  // x2 x3 z2 z3
+    const __m256d t3 = _mm256_unpackhi_pd(r2, r3);  // y2 y3 0 0
+    return {V(_mm256_permute2f128_pd(t0, t2, 0x20)), V(_mm256_permute2f128_pd(t1, t3, 0x20)),
+            V(_mm256_permute2f128_pd(t0, t2, 0x31))};
   }
 #endif
   auto lane = [&](int c) { return V([&](auto l) { return base[stride * idx[l] + c]; }); };
