@@ -137,7 +137,9 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   if (dev_) run_phase_on_device(p, max_steps, k, below, settled);
   while (!dev_ && !settled && k < max_steps) {
-    advance();
+    // The CPU step may end with the next step's drift done (Simulation::step) when nothing
+    // reads the state in between: no criterion to evaluate, no output, not the phase's end.
+    advance(!p.criterion && k + 1 < max_steps && !host_needs_state_at(sim_.step_count() + 1));
     ++k;
     if (p.criterion) {
       const double ke = p.translational ? translational_kinetic_energy_j() : kinetic_energy_j();
@@ -147,7 +149,9 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
     }
     phase_step_ = k;
     settle_counter_ = below;
+    defer_stop_ = sim_.steps_ahead();  // a signal stops the run after the next step, not half a step ahead
     after_step();
+    defer_stop_ = false;
   }
   k -= start_step;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

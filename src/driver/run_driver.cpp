@@ -74,9 +74,9 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
 #endif
 }
 
-void Runner::advance() {
+void Runner::advance(bool next_follows) {
   if (!dev_) {
-    sim_.step();
+    sim_.step(next_follows && !g_stop_signal);
     return;
   }
   dev_->step();

@@ -76,7 +76,7 @@ class Runner {
   void report_progress(const std::string& label);
   [[noreturn]] void stop_on_signal();
   /// One time step on the selected engine.
-  void advance();
+  void advance(bool next_follows = false);  // next_follows: see sim::Simulation::step
   /// GPU engine: the number of steps, at most `limit`, that the device may make in one
   /// DeviceEngine::advance call: it ends at the first step whose after_step uses the state
   /// (sample, snapshot, frame, checkpoint, the test hooks), after at most kDeviceRun steps.

@@ -159,6 +159,7 @@ void Simulation::restore_after_checkpoint(double time_s, std::uint64_t steps, bo
 }
 
 double Simulation::kinetic_energy_j() const {
+  require_not_ahead();
   // Serial on purpose: an OpenMP reduction combines partial sums in thread-arrival order, and
   // this value decides when a settle phase ends, which must be reproducible.
   double e = 0.0;
@@ -173,12 +174,14 @@ double Simulation::kinetic_energy_j() const {
 }
 
 double Simulation::translational_kinetic_energy_j() const {
+  require_not_ahead();
   double e = 0.0;
   for (std::size_t b = 0; b < bodies_.size(); ++b) e += 0.5 * bodies_.mass_kg[b] * norm2(bodies_.velocity_m_s[b]);
   return e;
 }
 
 double Simulation::elastic_energy_j() const {
+  require_not_ahead();
   double e = 0.0;
   const auto& s = spheres_;
   const auto& L = list_;
@@ -206,12 +209,14 @@ double Simulation::elastic_energy_j() const {
 }
 
 Vec3 Simulation::linear_momentum() const {
+  require_not_ahead();
   Vec3 p;
   for (std::size_t b = 0; b < bodies_.size(); ++b) p += bodies_.mass_kg[b] * bodies_.velocity_m_s[b];
   return p;
 }
 
 Vec3 Simulation::angular_momentum_about_origin() const {
+  require_not_ahead();
   Vec3 l;
   for (std::size_t b = 0; b < bodies_.size(); ++b)
     l += cross(bodies_.position_m[b], bodies_.mass_kg[b] * bodies_.velocity_m_s[b]) +
@@ -221,6 +226,7 @@ Vec3 Simulation::angular_momentum_about_origin() const {
 }
 
 Vec3 Simulation::center_of_mass_m() const {
+  require_not_ahead();
   Vec3 c;
   double m = 0.0;
   for (std::size_t b = 0; b < bodies_.size(); ++b) {

@@ -15,6 +15,9 @@
 //      thread); one barrier; then each sphere gathers its entries and its wall contacts in a
 //      fixed order, each body sums its spheres (force with gravity, torque about the centre of
 //      mass) and gets the second half kick.
+//   6. step(true), when the caller will not read the state before the next step: right after
+//      its kick each block of bodies gets the next step's 1-3 (the same functions on the same
+//      data, while they are in the cache), and the next step begins at 4.
 // Determinism: no atomics or thread-order-dependent sums anywhere; the result is bit-identical
 // for any number of threads on the same build.
 #pragma once
@@ -159,7 +162,13 @@ class Simulation {
   bool drum_rotating() const { return drum_rotating_; }
 
   // --- stepping ---
-  void step();
+  /// One step. next_follows: the caller makes the next step before it reads or changes anything
+  /// (outputs, energies, insertion, checkpoints); the step then ends with the next step's half
+  /// kick, drift and placement done (steps_ahead()), and the state may not be read until
+  /// step() is called again (the accessors throw). Same results either way.
+  void step(bool next_follows = false);
+  /// True between a step(true) and the next step: the state is half a step ahead.
+  bool steps_ahead() const { return ahead_; }
   /// Per-phase timers of step() (off by default: they read the clock a few times per step).
   void set_profile(bool on) { profile_on_ = on; }
   /// The implementation of the sphere-sphere contacts (sim/pair_pass.hpp): by default the widest
@@ -168,7 +177,8 @@ class Simulation {
   PairKernel pair_kernel() const { return pair_kernel_; }
   const StepProfile& profile() const { return profile_; }
   void reset_profile() { profile_ = {}; }
-  void run_steps(std::uint64_t n) { for (std::uint64_t i = 0; i < n; ++i) step(); }
+  /// n steps, each but the last with next_follows (the state is readable afterwards).
+  void run_steps(std::uint64_t n) { for (std::uint64_t i = 0; i < n; ++i) step(i + 1 < n); }
 
   // --- state and diagnostics ---
   double time_s() const { return time_s_; }
@@ -186,19 +196,30 @@ class Simulation {
   /// the entries (and history) of touching walls (the GPU engine's download uses it).
   void refresh_wall_candidates() { update_wall_candidates(); }
   const state::SphereStore& spheres() const {
+    require_not_ahead();
     if (spheres_stale_) const_cast<Simulation*>(this)->update_spheres_from_bodies();
     return spheres_;
   }
-  const state::BodyStore& bodies() const { return bodies_; }
+  const state::BodyStore& bodies() const {
+    require_not_ahead();
+    return bodies_;
+  }
   state::SphereStore& spheres_mut() {
+    require_not_ahead();
     if (spheres_stale_) update_spheres_from_bodies();
     return spheres_;
   }
-  state::BodyStore& bodies_mut() { return bodies_; }
+  state::BodyStore& bodies_mut() {
+    require_not_ahead();
+    return bodies_;
+  }
   const std::vector<shapes::ClumpTemplate>& templates() const { return templates_; }
   const std::vector<WallSpec>& walls() const { return walls_; }
   const neighbor::VerletList& neighbor_list() const { return list_; }
-  neighbor::VerletList& neighbor_list_mut() { return list_; }
+  neighbor::VerletList& neighbor_list_mut() {
+    require_not_ahead();
+    return list_;
+  }
   WallContacts& wall_contacts() { return wall_contacts_; }
   const WallContacts& wall_contacts() const { return wall_contacts_; }
   const contact::PairTable& pair_table() const { return pairs_; }
@@ -222,6 +243,9 @@ class Simulation {
                                 std::vector<Vec3> list_built_at, std::size_t list_builds);
 
  private:
+  /// Throws biodem::Error (an internal error: a caller broke step(true)'s promise) while the
+  /// state is half a step ahead.
+  void require_not_ahead() const;
   void update_spheres_from_bodies();
   void place_spheres_of(std::size_t b);
   /// Half kick, drift and placement of every body's spheres; true when a sphere moved more than
@@ -229,12 +253,12 @@ class Simulation {
   bool kick_drift_place();
   int drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
   /// The whole step in one parallel region when no list rebuild is due (false: drifted only).
-  bool step_in_one_region();
+  bool step_in_one_region(bool ahead_next);
   /// The team's job: (drift, barrier, rebuild test,) pair rows, barrier, gather/walls/sums/kick.
   template <bool Cohesion, bool Rolling>
-  bool step_job(bool drift, bool kick);
+  bool step_job(bool drift, bool kick, bool ahead_next);
   /// Contact forces, body sums and (with kick) the second half kick, in one parallel region.
-  void forces_and_kick(bool kick);
+  void forces_and_kick(bool kick, bool ahead_next = false);
   PairPassData pair_pass_data();
   template <bool Cohesion, bool Rolling>
   std::size_t gather_and_walls(std::size_t i0, std::size_t i1);
@@ -281,7 +305,9 @@ class Simulation {
   std::uint64_t removed_bodies_ = 0;
   double removed_mass_kg_ = 0.0;
   bool list_valid_ = false;
-  bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
+  bool spheres_stale_ = false;
+  bool ahead_ = false;        // the next step's half kick, drift and placement are done (step(true))
+  bool ahead_moved_ = false;  // ... and a sphere moved more than skin/2 in it  // sphere velocities lag the bodies' second half kick
   bool forces_valid_ = false;
   double drum_omega_ = 0.0;
   bool drum_rotating_ = false;
@@ -291,6 +317,7 @@ class Simulation {
   bool cohesion_ = false, rolling_ = false;
   bool wall_rolling_lab_ = false;
   std::size_t sort_every_builds_ = 16;
+  std::vector<std::uint8_t> ahead_moved_by_;     // per block: the same for the drift made ahead
   std::vector<std::uint8_t> block_moved_;        // per block: a sphere moved more than skin/2
   static constexpr int kChunksPerThread = 8;     // work chunks per thread (stealing, see ChunkCursors)
   int threads_ = 1;                              // team size the chunks were cut for

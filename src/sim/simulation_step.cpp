@@ -80,15 +80,23 @@ inline void release_wall_slot(WallContacts& wc, std::uint32_t slot) {
 }
 }  // namespace
 
-void Simulation::step() {
+void Simulation::require_not_ahead() const {
+  if (ahead_)
+    throw Error("internal error: the simulation state was accessed between step(true) and the next step");
+}
+
+void Simulation::step(bool next_follows) {
+  if (ahead_ && (!forces_valid_ || !list_valid_)) require_not_ahead();  // changed in between: throws
   if (!forces_valid_ || !list_valid_) refresh();
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   update_wall_motion(time_s_ + dt_s_);
-  // Common case, one parallel region: drift, and unless the list must be rebuilt, the forces
-  // and the second kick too. A rebuild (or a sink, which needs the drifted bodies serially)
-  // leaves the region after the drift; the rest of the step then runs as separate passes.
+  // Common case, one parallel region: drift (unless the last step did it ahead), and unless the
+  // list must be rebuilt, the forces and the second kick too (and with next_follows the next
+  // step's drift). A rebuild (or a sink, which needs the drifted bodies serially) leaves the
+  // region after the drift; the rest of the step then runs as separate passes.
   const bool fused = sinks_.empty();
-  const bool done = fused ? step_in_one_region() : false;
+  const bool ahead_next = fused && next_follows;
+  const bool done = fused ? step_in_one_region(ahead_next) : false;
   if (!done) {
     const bool moved = fused ? true : kick_drift_place();  // (fused: drifted, and a rebuild is due)
     const Clock::time_point t1 = profile_on_ ? Clock::now() : Clock::time_point{};
@@ -101,7 +109,7 @@ void Simulation::step() {
       if (profile_on_) ++profile_.builds;
     }
     if (profile_on_) profile_.list_s += seconds_since(t1);
-    forces_and_kick(true);
+    forces_and_kick(true, ahead_next);
   }
   // Sphere velocities at the full step are refreshed lazily, when someone reads the spheres
   // (outputs, diagnostics); the next step refreshes them anyway.
@@ -187,34 +195,44 @@ bool Simulation::kick_drift_place() {
   return moved != 0;
 }
 
-bool Simulation::step_in_one_region() {
-  if (cohesion_) return rolling_ ? step_job<true, true>(true, true) : step_job<true, false>(true, true);
-  return rolling_ ? step_job<false, true>(true, true) : step_job<false, false>(true, true);
+bool Simulation::step_in_one_region(bool ahead_next) {
+  if (cohesion_)
+    return rolling_ ? step_job<true, true>(true, true, ahead_next) : step_job<true, false>(true, true, ahead_next);
+  return rolling_ ? step_job<false, true>(true, true, ahead_next) : step_job<false, false>(true, true, ahead_next);
 }
 
 template <bool Cohesion, bool Rolling>
-bool Simulation::step_job(bool drift, bool kick) {
-  // One job of the thread team. With drift: the drift of every chunk, a barrier, and every
-  // thread reads all chunks' displacement flags (so all take the same branch); if a rebuild is
-  // due the job ends there (returns false: the bodies have drifted). Then: pair rows, a barrier,
-  // gather, walls, body sums and (with kick) the second half kick.
+bool Simulation::step_job(bool drift, bool kick, bool ahead_next) {
+  // One job of the thread team. With drift: the drift of every chunk (unless the last step's
+  // job did it ahead), a barrier, and every thread reads all chunks' displacement flags (so all
+  // take the same branch); if a rebuild is due the job ends there (returns false: the bodies
+  // have drifted). Then: pair rows, a barrier, gather, walls, body sums and (with kick) the
+  // second half kick; with ahead_next, each chunk's bodies then get the next step's drift.
   ensure_work_blocks();
   const int blocks = static_cast<int>(block_body_.size()) - 1;
   const bool have_built = list_.built_at().size() == spheres_.size();
   const double limit2 = list_.rebuild_limit2();
-  if (drift) block_moved_.assign(static_cast<std::size_t>(blocks), 0);
+  const bool drifted = drift && ahead_;
+  if (drift) {
+    block_moved_.assign(static_cast<std::size_t>(blocks), 0);
+    if (drifted) block_moved_[0] = ahead_moved_;  // the flags of the drift made ahead
+    ahead_ = false;
+  }
   bool rebuild = false;
   const Clock::time_point t0 = profile_on_ ? Clock::now() : Clock::time_point{};
   double drift_end_s = 0.0, pair_end_s = 0.0;
   std::vector<PerThread> per(static_cast<std::size_t>(std::max(threads_, 1)));
   ChunkCursors drift_chunks(threads_, blocks), pair_chunks(threads_, blocks), gather_chunks(threads_, blocks);
   const PairPassData pass = pair_pass_data();
+  if (ahead_next) ahead_moved_by_.assign(static_cast<std::size_t>(blocks), 0);
   team().run(threads_, [&](int me, int team_size) {
     if (drift) {
-      drift_chunks.for_each(me, team_size, [&](int k) {
-        block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
-      });
-      team().barrier();
+      if (!drifted) {
+        drift_chunks.for_each(me, team_size, [&](int k) {
+          block_moved_[k] = static_cast<std::uint8_t>(drift_bodies(block_body_[k], block_body_[k + 1], have_built, limit2));
+        });
+        team().barrier();
+      }
       bool any = !have_built;
       for (int k = 0; k < blocks; ++k) any = any || block_moved_[k] != 0;
       if (me == 0) {
@@ -239,8 +257,16 @@ bool Simulation::step_job(bool drift, bool kick) {
       per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
                                                            bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
       reduce_and_kick(b0, b1, kick);
+      // The next step's half kick, drift and placement of the block (the gather above read only
+      // the block's own spheres, and the pair rows that read the others' ended at the barrier).
+      if (ahead_next) ahead_moved_by_[k] = static_cast<std::uint8_t>(drift_bodies(b0, b1, have_built, limit2));
     });
   });
+  if (ahead_next) {
+    ahead_ = true;
+    ahead_moved_ = false;
+    for (std::uint8_t m : ahead_moved_by_) ahead_moved_ = ahead_moved_ || m != 0;
+  }
   if (drift) {
     spheres_stale_ = false;
     if (profile_on_) profile_.drift_s += drift_end_s;
@@ -308,9 +334,9 @@ PairPassData Simulation::pair_pass_data() {
   return make_pair_pass_data(spheres_, list_, pairs_, dt_s_, domain_.any_periodic());
 }
 
-void Simulation::forces_and_kick(bool kick) {
-  if (cohesion_) rolling_ ? step_job<true, true>(false, kick) : step_job<true, false>(false, kick);
-  else rolling_ ? step_job<false, true>(false, kick) : step_job<false, false>(false, kick);
+void Simulation::forces_and_kick(bool kick, bool ahead_next) {
+  if (cohesion_) rolling_ ? step_job<true, true>(false, kick, ahead_next) : step_job<true, false>(false, kick, ahead_next);
+  else rolling_ ? step_job<false, true>(false, kick, ahead_next) : step_job<false, false>(false, kick, ahead_next);
 }
 
 template <bool Cohesion, bool Rolling>
