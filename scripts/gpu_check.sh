@@ -14,7 +14,8 @@
 #      (BIODEM_TEST_PARALLEL_THRESHOLD=0 --threads 2) compared with them;
 #      (3c) the same run with plain kernel launches instead of CUDA graphs (BIODEM_GPU_GRAPH=0),
 #      and (3d) a drum whose settle phase ends on the criterion evaluated on the device, with
-#      and without graphs;
+#      and without graphs; (3e) the same run with ReduceKick and KickDriftSpheres launched
+#      separately instead of the fused ReduceKickDrift (BIODEM_GPU_FUSE=0);
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -181,6 +182,13 @@ settle_end=$(grep -o "phase 'settle' ends at t = [^;]*" "$OUT/settle_graph/run.l
 expect_same "3d. settle criterion on the device, with and without CUDA graphs" \
   "$([ $sc -eq 0 ] && [ $sd -eq 0 ] && echo 1)" "a run failed (logs/settle_graph.txt, settle_plain.txt)" \
   "$OUT/settle_graph" "$OUT/settle_plain" "byte-identical; $settle_end"
+
+# 3e. ReduceKick and the next step's KickDriftSpheres as two kernels instead of the fused
+# ReduceKickDrift (BIODEM_GPU_FUSE=0): the same operations in the same order, so the same bytes.
+BIODEM_GPU_FUSE=0 run_biodem needles_unfused "$needles" "$OUT/needles_unfused" --device "$DEVICE"; su=$?
+expect_same "3e. same run without the fused body kernel" "$([ $su -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
+  "a run failed (logs/needles_unfused.txt)" "$OUT/needles_a" "$OUT/needles_unfused" \
+  "byte-identical to the run with ReduceKickDrift"
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
 "$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?

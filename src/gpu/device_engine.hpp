@@ -83,6 +83,12 @@ class DeviceEngine {
   /// and the capacity now (entries per sphere); run.log reports both (scripts/gpu_check.sh).
   virtual std::uint64_t row_widenings() const = 0;
   virtual std::uint32_t row_capacity() const = 0;
+  /// Between two list checks outside a settle-criterion phase, the body reduction of step c
+  /// (ReduceKick) and the first half of step c + 1 (KickDriftSpheres) run as one kernel,
+  /// ReduceKickDrift (same bits). On by default; off with BIODEM_GPU_FUSE=0 or this switch, for
+  /// tests and comparisons. fused_steps() counts the steps whose halves were joined so far.
+  virtual void set_fused_kick(bool on) = 0;
+  virtual std::uint64_t fused_steps() const = 0;
   /// For tests: the pairs (i < j, storage indices) of the current device list, sorted, and the
   /// number of row entries whose mirror entry (j's row holding i) is missing (0 in a valid list).
   virtual std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) = 0;

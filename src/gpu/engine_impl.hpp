@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <numeric>
 #include <string>
@@ -57,12 +58,22 @@ class Engine final : public DeviceEngine {
   template <class T>
   using vec = typename System::template vector<T>;
 
-  Engine(sim::Simulation& host, std::string name) : host_(host), name_(std::move(name)) {}
+  Engine(sim::Simulation& host, std::string name) : host_(host), name_(std::move(name)) {
+    // Switches for tests and comparisons (docs/gpu.md): BIODEM_GPU_FUSE=0 launches ReduceKick
+    // and KickDriftSpheres separately between list checks.
+    const char* fuse = std::getenv("BIODEM_GPU_FUSE");
+    fuse_ = !(fuse && std::string(fuse) == "0");
+  }
 
   std::string device_name() const override { return name_; }
   std::uint64_t list_builds() const override { return builds_; }
   std::uint64_t row_widenings() const override { return widenings_; }
   std::uint32_t row_capacity() const override { return rows_.cap; }
+  std::uint64_t fused_steps() const override { return fused_units_; }
+  void set_fused_kick(bool on) override {
+    invalidate_graphs();
+    fuse_ = on;
+  }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len;
     to_host(j, rows_.j);
@@ -133,6 +144,9 @@ class Engine final : public DeviceEngine {
   /// body sums with the second half kick and, in a criterion phase, the settle update.
   void first_half();
   void second_half();
+  /// The second half of step c and the first half of step c + 1 fused (outside criterion
+  /// phases): forces, then ReduceKickDrift.
+  void fused_unit();
   /// `units` times (second half of a step, first half of the next): the launches between two
   /// list checks, with no host wait (on CUDA: replayed as one CUDA graph when it can).
   void run_units(std::uint32_t units);
@@ -192,6 +206,8 @@ class Engine final : public DeviceEngine {
   SettleCriterion criterion_;
   SettleState settle_host_;  // as last read from the device
   typename System::Graphs graphs_;
+  bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
+  std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
   typename System::Staging staging_;  // download()'s copies
 
  public:
@@ -488,19 +504,32 @@ inline void Engine::second_half() {
                          criterion_.min_steps, criterion_.hold_steps});
 }
 
+inline void Engine::fused_unit() {
+  compute_forces(halt());
+  launch(nb(), ReduceKickDrift{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()});
+}
+
 inline void Engine::run_units(std::uint32_t units) {
-  auto record = [this, units] {
+  // Outside a criterion phase nothing runs between ReduceKick of step c and KickDriftSpheres of
+  // step c + 1: one fused kernel (ReduceKickDrift) does both, with the same bits.
+  const bool fused = fuse_ && !settle_active_;
+  auto record = [this, units, fused] {
     for (std::uint32_t u = 0; u < units; ++u) {
-      second_half();
-      first_half();
+      if (fused) {
+        fused_unit();
+      } else {
+        second_half();
+        first_half();
+      }
     }
   };
+  if (fused) fused_units_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
-  const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 2) |
-                            (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
+  const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 3) |
+                            (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
   if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
 }
 

@@ -96,10 +96,24 @@ struct SpheresFromBodies {
   }
 };
 
+/// The spheres of body k (centres, velocities, spins) from the body's state in memory, with the
+/// same formula as SpheresFromBodies (bit for bit: the rotation matrix is a function of the
+/// orientation only).
+BIODEM_HD inline void spheres_of_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k) {
+  const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+  if (ns == 1 && s.offset[s0] == Vec3{}) {
+    s.position[s0] = b.position[k];
+    s.velocity[s0] = b.velocity[k];
+    s.omega[s0] = b.omega[k];
+    return;
+  }
+  const Mat3 R = to_matrix(b.orientation[k]);
+  for (std::uint32_t i = s0; i < s0 + ns; ++i) sphere_from_body(b, s, k, i, R);
+}
+
 /// The first part of a step, one thread per body (kick-drift and sphere update fused): half
 /// kick, drift and free-rotor rotation of body k (the CPU engine's step, parts 1-2, same
-/// arithmetic), then its spheres' centres, velocities and spins, with the same formula as
-/// SpheresFromBodies (bit for bit: the rotation matrix is a function of the orientation only).
+/// arithmetic), then its spheres (spheres_of_body).
 struct KickDriftSpheres {
   BodyArrays b;
   SphereArrays s;
@@ -109,15 +123,7 @@ struct KickDriftSpheres {
     if (halted(halt)) return;
     integrate::kick_and_drift(b.position[k], b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k],
                               b.inertia[k], b.sphere_count[k], b.force[k], b.torque[k], h, dt);
-    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
-    if (ns == 1 && s.offset[s0] == Vec3{}) {
-      s.position[s0] = b.position[k];
-      s.velocity[s0] = b.velocity[k];
-      s.omega[s0] = b.omega[k];
-      return;
-    }
-    const Mat3 R = to_matrix(b.orientation[k]);
-    for (std::uint32_t i = s0; i < s0 + ns; ++i) sphere_from_body(b, s, k, i, R);
+    spheres_of_body(b, s, k);
   }
 };
 
@@ -425,6 +431,44 @@ struct ReduceKick {
     if (!kick) return;
     integrate::half_kick(b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k], b.inertia[k], ns, f,
                          t, h);
+  }
+};
+
+/// ReduceKick of step c and KickDriftSpheres of step c + 1 in one thread per body: the launches
+/// between two list checks outside a settle-criterion phase (nothing runs between the two
+/// kernels there). The same operations in the same order as the two kernels (body sums in
+/// template order, the second half kick with the sums, then half kick, drift and turn with the
+/// same force and torque, then the spheres), so the same bits; the body's state stays in
+/// registers between the two halves instead of going through memory.
+struct ReduceKickDrift {
+  BodyArrays b;
+  SphereArrays s;
+  Vec3 gravity;
+  double h, dt;
+  const std::uint32_t* halt;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(halt)) return;
+    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+    const double m = b.mass[k];
+    Vec3 x = b.position[k];
+    Vec3 f = m * gravity, t;
+    for (std::uint32_t i = s0; i < s0 + ns; ++i) {
+      f += s.force[i];
+      t += s.torque[i] + cross(s.position[i] - x, s.force[i]);
+    }
+    b.force[k] = f;
+    b.torque[k] = t;
+    const Vec3 inertia = b.inertia[k];
+    Vec3 v = b.velocity[k], w = b.omega[k], l = b.ang_momentum[k];
+    Quat q = b.orientation[k];
+    integrate::half_kick(v, w, l, q, m, inertia, ns, f, t, h);
+    integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
+    b.position[k] = x;
+    b.velocity[k] = v;
+    b.omega[k] = w;
+    b.ang_momentum[k] = l;
+    b.orientation[k] = q;
+    spheres_of_body(b, s, k);
   }
 };
 
