@@ -89,6 +89,15 @@ class DeviceEngine {
   /// tests and comparisons. fused_steps() counts the steps whose halves were joined so far.
   virtual void set_fused_kick(bool on) = 0;
   virtual std::uint64_t fused_steps() const = 0;
+  /// The bodies are stored on the device sorted by the neighbour-list cell of their first sphere
+  /// (each body's spheres contiguous, in template order), re-sorted at the list build of every
+  /// upload and every N-th build after it (N = 4 by default; BIODEM_GPU_SORT=N or this switch;
+  /// 0: never). Results and downloads do not depend on it (docs/gpu.md). body_sorts() counts the
+  /// sorts that reordered the bodies; body_order() gives, for each device slot, the host
+  /// Simulation's index of the body stored there (for tests).
+  virtual void set_sort_every(std::uint32_t builds) = 0;
+  virtual std::uint64_t body_sorts() const = 0;
+  virtual std::vector<std::uint32_t> body_order() = 0;
   /// For tests: the pairs (i < j, storage indices) of the current device list, sorted, and the
   /// number of row entries whose mirror entry (j's row holding i) is missing (0 in a valid list).
   virtual std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) = 0;

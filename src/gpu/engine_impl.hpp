@@ -9,8 +9,12 @@
 #include <thrust/find.h>
 #include <thrust/for_each.h>
 #include <thrust/functional.h>
+#include <thrust/gather.h>
 #include <thrust/iterator/counting_iterator.h>
+#include <thrust/iterator/transform_iterator.h>
 #include <thrust/reduce.h>
+#include <thrust/scan.h>
+#include <thrust/scatter.h>
 #include <thrust/sequence.h>
 #include <thrust/sort.h>
 #include <thrust/transform_reduce.h>
@@ -52,6 +56,11 @@ void to_host(H& h, const D& d) {
 
 /// Most walls a sphere is tested against each step (the drum has three).
 inline constexpr std::size_t kMaxDeviceWalls = 16;
+/// Bodies are sorted by cell at the list build of every upload and at every kSortEvery-th build
+/// after it (docs/gpu.md, "Bodies sorted by cell"; BIODEM_GPU_SORT overrides). Measured
+/// emulated on the quick drums: one build interval puts 0.3-3 % of adjacent slots out of cell
+/// order; every 4th build keeps that at 0.8-6 % for a quarter of the sorting.
+inline constexpr std::uint32_t kSortEvery = 4;
 
 class Engine final : public DeviceEngine {
  public:
@@ -63,6 +72,13 @@ class Engine final : public DeviceEngine {
     // and KickDriftSpheres separately between list checks.
     const char* fuse = std::getenv("BIODEM_GPU_FUSE");
     fuse_ = !(fuse && std::string(fuse) == "0");
+    // BIODEM_GPU_SORT=N: bodies sorted by cell at the list build of every upload and at every
+    // N-th build after it; 0: never (the host's order throughout).
+    if (const char* sort = std::getenv("BIODEM_GPU_SORT"); sort && *sort) {
+      char* end = nullptr;
+      const unsigned long v = std::strtoul(sort, &end, 10);
+      if (*end == '\0') sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
+    }
   }
 
   std::string device_name() const override { return name_; }
@@ -70,18 +86,29 @@ class Engine final : public DeviceEngine {
   std::uint64_t row_widenings() const override { return widenings_; }
   std::uint32_t row_capacity() const override { return rows_.cap; }
   std::uint64_t fused_steps() const override { return fused_units_; }
+  void set_sort_every(std::uint32_t builds) override {
+    sort_every_ = builds;
+    builds_until_sort_ = builds ? 1 : 0;  // at the next build
+  }
+  std::uint64_t body_sorts() const override { return sorts_; }
+  std::vector<std::uint32_t> body_order() override {
+    std::vector<std::uint32_t> h;
+    to_host(h, b_host_);
+    return h;
+  }
   void set_fused_kick(bool on) override {
     invalidate_graphs();
     fuse_ = on;
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
-    std::vector<std::uint32_t> j, len;
+    std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
     to_host(j, rows_.j);
     to_host(len, rows_.length);
+    to_host(host, s_host_);
     const std::size_t n = ns();
     std::vector<std::pair<std::uint32_t, std::uint32_t>> all, lo;
     for (std::size_t i = 0; i < n; ++i)
-      for (std::uint32_t q = 0; q < len[i]; ++q) all.emplace_back(static_cast<std::uint32_t>(i), j[q * n + i]);
+      for (std::uint32_t q = 0; q < len[i]; ++q) all.emplace_back(host[i], host[j[q * n + i]]);
     std::sort(all.begin(), all.end());
     std::size_t missing = 0;
     for (const auto& [a, c] : all) {
@@ -138,6 +165,15 @@ class Engine final : public DeviceEngine {
   };
 
   void build_list();
+  /// At a list build, after CellOf: sorts the bodies by the cell of their first sphere (stable)
+  /// and reorders every body- and sphere-indexed array and the wall history to match; the rows
+  /// are rebuilt right after, with their history carried over through sphere_src_ and
+  /// sphere_dst_. False when the bodies were already in order (nothing moved).
+  bool sort_bodies();
+  /// a[k] = a[src[k]] for every k (thrust::gather through scratch; a keeps its buffer, which
+  /// the CUDA graphs hold).
+  template <class T>
+  void permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch);
   /// Contact forces of every sphere; `halt` as the step kernels (null: always evaluated).
   void compute_forces(const std::uint32_t* halt);
   /// The two halves of a step around the list check: kick, drift and sphere update; then forces,
@@ -180,7 +216,23 @@ class Engine final : public DeviceEngine {
   vec<Vec3> s_pos_, s_vel_, s_omega_, s_offset_, s_force_, s_torque_, s_built_at_;
   vec<double> s_radius_, s_bmass_;
   vec<std::uint32_t> s_body_, s_material_, s_sid_, s_contacts_;
-  std::vector<std::uint32_t> sid_host_;
+  std::vector<std::uint32_t> sid_host_;  // stable sphere id of each host sphere (host order)
+  // The device's storage order against the host Simulation's (docs/gpu.md, "Bodies sorted by
+  // cell"): host body of each device body slot, device slot of each host body, host sphere of
+  // each device sphere. The identity after upload(), until the first sort.
+  vec<std::uint32_t> b_host_, b_slot_, s_host_;
+  // A sort's work arrays: body keys, the new order of the bodies, the old first spheres, each
+  // new sphere's old index and each old sphere's new index; scratch of each element type.
+  vec<std::uint32_t> body_key_, body_order_, old_first_, sphere_src_, sphere_dst_;
+  vec<Vec3> tmp_vec3_;
+  vec<Quat> tmp_quat_;
+  vec<double> tmp_double_;
+  vec<std::uint32_t> tmp_u32_;
+  vec<contact::ContactHistory> tmp_history_;
+  vec<std::uint8_t> tmp_u8_;
+  std::uint32_t sort_every_ = kSortEvery;  // 0: never
+  std::uint32_t builds_until_sort_ = 0;    // the build that sorts when this reaches 0 (0: none due)
+  std::uint64_t sorts_ = 0;                // sorts that reordered the bodies
   // neighbour list: current and previous rows (history carried from one to the other)
   Rows rows_, old_rows_;
   vec<std::uint32_t> cell_key_, sorted_, cell_start_;
@@ -291,6 +343,14 @@ inline void Engine::upload() {
   to_device(s_material_, material);
   to_device(s_sid_, sid_host_);
   s_contacts_.assign(n, 0u);
+  // The host's order; the list build below sorts the bodies (when sorting is on).
+  b_host_.resize(b.size());
+  b_slot_.resize(b.size());
+  s_host_.resize(n);
+  thrust::sequence(exec(), b_host_.begin(), b_host_.end());
+  thrust::sequence(exec(), b_slot_.begin(), b_slot_.end());
+  thrust::sequence(exec(), s_host_.begin(), s_host_.end());
+  builds_until_sort_ = sort_every_ ? 1 : 0;
   s_built_at_.assign(n, Vec3{});
 
   // Contact history of touching pairs from the host list (entries (i, j), history from i's side),
@@ -386,9 +446,11 @@ inline void Engine::check_finite() {
   auto it = thrust::find_if(exec(), thrust::counting_iterator<std::uint32_t>(0),
                             thrust::counting_iterator<std::uint32_t>(ns()), IsNotFinite{sphere_arrays()});
   if (*it != ns()) {
-    std::vector<std::uint32_t> body;
+    std::vector<std::uint32_t> body, b_host, s_host;  // named by the host's indices
     to_host(body, s_body_);
-    throw Error("sphere " + std::to_string(*it) + " (of body " + std::to_string(body[*it]) +
+    to_host(b_host, b_host_);
+    to_host(s_host, s_host_);
+    throw Error("sphere " + std::to_string(s_host[*it]) + " (of body " + std::to_string(b_host[body[*it]]) +
                 ") has a non-finite position at t = " + std::to_string(host_.time_s()) +
                 " s: the simulation became unstable (is [run].dt_s too large?)");
   }
@@ -438,6 +500,16 @@ inline void Engine::build_list() {
   cell_.resize(n);
   sorted_.resize(n);
   launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
+  const std::uint32_t* old_of = nullptr;  // set when this build reorders the bodies (BuildRows)
+  const std::uint32_t* new_of = nullptr;
+  if (builds_until_sort_ && --builds_until_sort_ == 0) {
+    builds_until_sort_ = sort_every_;
+    if (sort_bodies()) {
+      launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
+      old_of = raw<std::uint32_t>(sphere_src_);
+      new_of = raw<std::uint32_t>(sphere_dst_);
+    }
+  }
   thrust::sequence(exec(), sorted_.begin(), sorted_.end());
   thrust::stable_sort_by_key(exec(), cell_key_.begin(), cell_key_.end(), sorted_.begin());  // keys not needed after
   cell_start_.resize(ncell + 1);
@@ -451,7 +523,8 @@ inline void Engine::build_list() {
   for (;;) {
     if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
     launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_),
-                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_});
+                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of,
+                        new_of});
     const std::uint32_t longest =
         thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
     if (longest <= cap) break;
@@ -460,6 +533,63 @@ inline void Engine::build_list() {
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   ++builds_;
+}
+
+template <class T>
+void Engine::permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch) {
+  // The scratch serves arrays of bodies and of spheres: only ever enlarged (a resize fills the
+  // new elements, a kernel on the device and a parallel loop emulated).
+  if (scratch.size() < a.size()) scratch.resize(a.size());
+  thrust::copy(exec(), a.begin(), a.end(), scratch.begin());
+  thrust::gather(exec(), src.begin(), src.end(), scratch.begin(), a.begin());
+}
+
+inline bool Engine::sort_bodies() {
+  const std::uint32_t m = nb(), n = ns();
+  // Key of a body: the cell of its first sphere (CellOf has just run), in the list's cell order.
+  body_key_.resize(m);
+  thrust::gather(exec(), b_first_.begin(), b_first_.end(), cell_key_.begin(), body_key_.begin());
+  if (thrust::is_sorted(exec(), body_key_.begin(), body_key_.end())) return false;
+  body_order_.resize(m);
+  thrust::sequence(exec(), body_order_.begin(), body_order_.end());
+  thrust::stable_sort_by_key(exec(), body_key_.begin(), body_key_.end(), body_order_.begin());
+  // Bodies: counts, then the first spheres of the new order, then each new sphere's source.
+  old_first_.resize(m);
+  thrust::copy(exec(), b_first_.begin(), b_first_.end(), old_first_.begin());
+  permute(b_count_, body_order_, tmp_u32_);
+  thrust::exclusive_scan(exec(), b_count_.begin(), b_count_.end(), b_first_.begin());
+  sphere_src_.resize(n);
+  sphere_dst_.resize(n);
+  launch(m, SphereSources{raw<std::uint32_t>(body_order_), raw<std::uint32_t>(old_first_), raw<std::uint32_t>(b_first_),
+                          raw<std::uint32_t>(b_count_), raw<std::uint32_t>(sphere_src_), raw<std::uint32_t>(s_body_)});
+  thrust::scatter(exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(n),
+                  sphere_src_.begin(), sphere_dst_.begin());
+  for (auto* a : {&b_pos_, &b_vel_, &b_omega_, &b_l_, &b_force_, &b_torque_, &b_inertia_})
+    permute(*a, body_order_, tmp_vec3_);
+  permute(b_q_, body_order_, tmp_quat_);
+  permute(b_mass_, body_order_, tmp_double_);
+  permute(b_host_, body_order_, tmp_u32_);
+  thrust::scatter(exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(m),
+                  b_host_.begin(), b_slot_.begin());
+  // Spheres (s_built_at_ is overwritten by this build; cell_key_, wrap_, cell_ are recomputed).
+  for (auto* a : {&s_pos_, &s_vel_, &s_omega_, &s_offset_, &s_force_, &s_torque_}) permute(*a, sphere_src_, tmp_vec3_);
+  permute(s_radius_, sphere_src_, tmp_double_);
+  permute(s_bmass_, sphere_src_, tmp_double_);
+  for (auto* a : {&s_material_, &s_sid_, &s_contacts_, &s_host_}) permute(*a, sphere_src_, tmp_u32_);
+  // Wall history [wall * n + sphere].
+  if (n_walls_) {
+    const auto slots = thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0),
+                                                       WallSlotSource{raw<std::uint32_t>(sphere_src_), n});
+    const std::size_t count = static_cast<std::size_t>(n_walls_) * n;
+    if (tmp_history_.size() < count) tmp_history_.resize(count);
+    if (tmp_u8_.size() < count) tmp_u8_.resize(count);
+    thrust::copy(exec(), wall_history_.begin(), wall_history_.end(), tmp_history_.begin());
+    thrust::copy(exec(), wall_touching_.begin(), wall_touching_.end(), tmp_u8_.begin());
+    thrust::gather(exec(), slots, slots + count, tmp_history_.begin(), wall_history_.begin());
+    thrust::gather(exec(), slots, slots + count, tmp_u8_.begin(), wall_touching_.begin());
+  }
+  ++sorts_;
+  return true;
 }
 
 inline void Engine::compute_forces(const std::uint32_t* halt) {
@@ -496,10 +626,11 @@ inline void Engine::second_half() {
   launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, true, halt()});
   if (!settle_active_) return;
   double* ke = raw<double>(ke_sum_);
+  const std::uint32_t* slot = raw<std::uint32_t>(b_slot_);  // the sum in the host's body order
   if (criterion_.translational)
-    System::sum_into(nb(), BodyTranslationalKineticEnergy{body_arrays()}, ke, halt());
+    System::sum_into(nb(), InHostOrder<BodyTranslationalKineticEnergy>{{body_arrays()}, slot}, ke, halt());
   else
-    System::sum_into(nb(), BodyKineticEnergy{body_arrays()}, ke, halt());
+    System::sum_into(nb(), InHostOrder<BodyKineticEnergy>{{body_arrays()}, slot}, ke, halt());
   launch(1, SettleUpdate{raw<SettleState>(settle_), ke, static_cast<double>(nb()), criterion_.threshold_j,
                          criterion_.min_steps, criterion_.hold_steps});
 }
@@ -648,16 +779,19 @@ inline void Engine::check_list() {
         std::clamp(std::floor(room / per_step), 1.0, static_cast<double>(check_every_)));
 }
 
+// Sums over the bodies in the host's body order (InHostOrder), whatever the device's order.
 inline double Engine::kinetic_energy_j() {
   return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                  thrust::counting_iterator<std::uint32_t>(nb()), BodyKineticEnergy{body_arrays()},
-                                  0.0, thrust::plus<double>());
+                                  thrust::counting_iterator<std::uint32_t>(nb()),
+                                  InHostOrder<BodyKineticEnergy>{{body_arrays()}, raw<std::uint32_t>(b_slot_)}, 0.0,
+                                  thrust::plus<double>());
 }
 
 inline double Engine::translational_kinetic_energy_j() {
-  return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                  thrust::counting_iterator<std::uint32_t>(nb()),
-                                  BodyTranslationalKineticEnergy{body_arrays()}, 0.0, thrust::plus<double>());
+  return thrust::transform_reduce(
+      exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(nb()),
+      InHostOrder<BodyTranslationalKineticEnergy>{{body_arrays()}, raw<std::uint32_t>(b_slot_)}, 0.0,
+      thrust::plus<double>());
 }
 
 inline void Engine::download(bool history) {
@@ -673,10 +807,18 @@ inline void Engine::download(bool history) {
     h.resize(n);
     if (n) std::memcpy(static_cast<void*>(h.data()), st.host(item), n * sizeof(h[0]));
   };
+  // Device index d into host index to[d] (the device's storage order back to the host's).
+  auto take_to = [&st](auto& h, std::size_t item, const std::vector<std::uint32_t>& to) {
+    h.resize(to.size());
+    const char* src = static_cast<const char*>(st.host(item));
+    for (std::size_t d = 0; d < to.size(); ++d)
+      std::memcpy(static_cast<void*>(&h[to[d]]), src + d * sizeof(h[0]), sizeof(h[0]));
+  };
   const std::size_t n_b = nb(), n = ns();
   const std::size_t i_pos = add(b_pos_), i_vel = add(b_vel_), i_omega = add(b_omega_), i_l = add(b_l_), i_q = add(b_q_),
                     i_force = add(b_force_), i_torque = add(b_torque_), i_sforce = add(s_force_),
-                    i_storque = add(s_torque_), i_contacts = add(s_contacts_);
+                    i_storque = add(s_torque_), i_contacts = add(s_contacts_), i_bhost = add(b_host_),
+                    i_shost = add(s_host_);
   std::size_t i_rj = 0, i_rlen = 0, i_rt = 0, i_rh = 0, i_wh = 0, i_wt = 0;
   if (history) {
     i_rj = add(rows_.j);
@@ -687,18 +829,21 @@ inline void Engine::download(bool history) {
     i_wt = add(wall_touching_);
   }
   st.run();
+  std::vector<std::uint32_t> b_host, s_host;  // host index of each device body and sphere
+  take(b_host, i_bhost, n_b);
+  take(s_host, i_shost, n);
   auto& b = host_.bodies_mut();
-  take(b.position_m, i_pos, n_b);
-  take(b.velocity_m_s, i_vel, n_b);
-  take(b.angular_velocity_rad_s, i_omega, n_b);
-  take(b.angular_momentum_kg_m2_s, i_l, n_b);
-  take(b.orientation, i_q, n_b);
-  take(b.force_n, i_force, n_b);
-  take(b.torque_n_m, i_torque, n_b);
+  take_to(b.position_m, i_pos, b_host);
+  take_to(b.velocity_m_s, i_vel, b_host);
+  take_to(b.angular_velocity_rad_s, i_omega, b_host);
+  take_to(b.angular_momentum_kg_m2_s, i_l, b_host);
+  take_to(b.orientation, i_q, b_host);
+  take_to(b.force_n, i_force, b_host);
+  take_to(b.torque_n_m, i_torque, b_host);
   host_.mark_spheres_stale();
   auto& s = host_.spheres_mut();  // positions and velocities recomputed from the bodies (same formula)
-  take(s.force_n, i_sforce, n);
-  take(s.torque_n_m, i_storque, n);
+  take_to(s.force_n, i_sforce, s_host);
+  take_to(s.torque_n_m, i_storque, s_host);
   {
     std::vector<std::uint32_t> contacts;
     take(contacts, i_contacts, n);
@@ -726,17 +871,22 @@ inline void Engine::download(bool history) {
   L.build(s);
   std::fill(L.touching.begin(), L.touching.end(), std::uint8_t{0});
   std::fill(L.history.begin(), L.history.end(), contact::ContactHistory{});
+  // Device rows name device spheres: host sphere hi has device row i = dev[hi], and an entry
+  // naming device sphere j names host sphere s_host[j].
+  std::vector<std::uint32_t> dev(n);
+  for (std::size_t i = 0; i < n; ++i) dev[s_host[i]] = static_cast<std::uint32_t>(i);
   std::size_t found = 0, touching = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t hi = 0; hi < n; ++hi) {
+    const std::size_t i = dev[hi];
     for (std::uint32_t q = 0; q < rlen[i]; ++q)
-      if (rt[q * n + i] && sid_host_[i] < sid_host_[rj[q * n + i]]) ++touching;
-    for (std::uint32_t k = L.row_start[i]; k < L.row_start[i + 1]; ++k) {
+      if (rt[q * n + i] && sid_host_[hi] < sid_host_[s_host[rj[q * n + i]]]) ++touching;
+    for (std::uint32_t k = L.row_start[hi]; k < L.row_start[hi + 1]; ++k) {
       const std::uint32_t j = L.j[k];
       for (std::uint32_t q = 0; q < rlen[i]; ++q) {
-        if (rj[q * n + i] != j) continue;
+        if (s_host[rj[q * n + i]] != j) continue;
         if (rt[q * n + i]) {
           contact::ContactHistory h = rh[q * n + i];
-          if (sid_host_[i] > sid_host_[j]) {
+          if (sid_host_[hi] > sid_host_[j]) {
             h.xi = -h.xi;
             h.m_r = -h.m_r;
           }
@@ -754,14 +904,15 @@ inline void Engine::download(bool history) {
   // Wall contacts: the touching ones with their history; the host adds the other candidates.
   sim::WallContacts wc;
   wc.start.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t hi = 0; hi < n; ++hi) {
+    const std::size_t i = dev[hi];
     for (std::size_t w = 0; w < n_walls_; ++w)
       if (wt[w * n + i]) {
         wc.wall.push_back(static_cast<std::uint32_t>(w));
         wc.history.push_back(wh[w * n + i]);
         wc.touching.push_back(1);
       }
-    wc.start[i + 1] = static_cast<std::uint32_t>(wc.wall.size());
+    wc.start[hi + 1] = static_cast<std::uint32_t>(wc.wall.size());
   }
   host_.wall_contacts() = std::move(wc);
   host_.restore_after_checkpoint(host_.time_s(), host_.step_count(), host_.drum_rotating(), skin_, L.built_at(),

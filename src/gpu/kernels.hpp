@@ -226,7 +226,9 @@ struct CellOf {
 /// Builds sphere i's full neighbour row (all spheres of other bodies closer than r_i + r_j +
 /// skin, sorted by stable id) and carries the history of touching pairs over from the old row.
 /// A row longer than the capacity is counted (length > cap) and not stored; the host then
-/// enlarges the rows and builds again.
+/// enlarges the rows and builds again. When the bodies were sorted just before this build, the
+/// old rows are in the storage order before the sort: sphere i's old row is column old_of[i],
+/// and an old entry naming sphere j (old index) names new_of[j] now (null: the same order).
 struct BuildRows {
   SphereArrays s;
   GridParams g;
@@ -237,6 +239,8 @@ struct BuildRows {
   RowArrays old_rows, rows;
   std::uint32_t n;
   double skin;
+  const std::uint32_t* old_of;  // new sphere index -> its index in old_rows (null: identity)
+  const std::uint32_t* new_of;  // old sphere index -> new index (null: identity)
   BIODEM_HD void operator()(std::uint32_t i) const {
     const Vec3 xi = s.position[i];
     const double ri = s.radius[i];
@@ -295,15 +299,21 @@ struct BuildRows {
         }
     rows.length[i] = len;
     if (len > rows.cap) return;
-    // History carried over: both rows are sorted by stable id, so one merge pass.
+    // History carried over: both rows are sorted by stable id, so one merge pass (keyed by the
+    // stable ids of the current storage order: the old entries are mapped to it first).
+    const std::uint32_t oi = old_of ? old_of[i] : i;
+    auto old_j = [&](std::uint32_t o) {
+      const std::uint32_t j = old_rows.j[o * n + oi];
+      return new_of ? new_of[j] : j;
+    };
     std::uint32_t o = 0;
-    const std::uint32_t o_end = old_rows.length[i];
+    const std::uint32_t o_end = old_rows.length[oi];
     for (std::uint32_t q = 0; q < len; ++q) {
       const std::uint32_t jj = rows.j[q * n + i];
       const std::uint32_t sj = s.sid[jj];
-      while (o < o_end && s.sid[old_rows.j[o * n + i]] < sj) ++o;
-      if (o < o_end && old_rows.j[o * n + i] == jj && old_rows.touching[o * n + i]) {
-        rows.history[q * n + i] = old_rows.history[o * n + i];
+      while (o < o_end && s.sid[old_j(o)] < sj) ++o;
+      if (o < o_end && old_j(o) == jj && old_rows.touching[o * n + oi]) {
+        rows.history[q * n + i] = old_rows.history[o * n + oi];
         rows.touching[q * n + i] = 1;
       } else {
         rows.history[q * n + i] = contact::ContactHistory{};
@@ -311,6 +321,47 @@ struct BuildRows {
       }
     }
   }
+};
+
+/// The bodies' storage order on the device (docs/gpu.md, "Bodies sorted by cell"): after the
+/// bodies were reordered (new slot d holds the body that was at slot order[d]; counts and the
+/// new first spheres already in the new order), the source of every sphere of the new order
+/// (its index before) and its new body index. One thread per body (new order).
+struct SphereSources {
+  const std::uint32_t* order;      // new body slot -> old body slot
+  const std::uint32_t* old_first;  // old body slot -> its first sphere before
+  const std::uint32_t* first;      // new body slot -> its first sphere now
+  const std::uint32_t* count;      // new body slot -> its spheres
+  std::uint32_t* src;              // new sphere index -> old sphere index
+  std::uint32_t* body;             // new sphere index -> new body slot
+  BIODEM_HD void operator()(std::uint32_t d) const {
+    const std::uint32_t from = old_first[order[d]], to = first[d], c = count[d];
+    for (std::uint32_t q = 0; q < c; ++q) {
+      src[to + q] = from + q;  // the body's spheres stay contiguous, in template order
+      body[to + q] = d;
+    }
+  }
+};
+
+/// A dense (wall, sphere) array [w * n + i] in the new sphere order takes slot w n + i from slot
+/// w n + src[i] (the map of a thrust::gather).
+struct WallSlotSource {
+  const std::uint32_t* src;
+  std::uint32_t n;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t slot) const {
+    const std::uint32_t w = slot / n, i = slot - w * n;
+    return w * n + src[i];
+  }
+};
+
+/// f of the body that the host Simulation holds at index h (slot[h]: its device slot): sums over
+/// the bodies (kinetic energy) run in the host's order, whatever the device's storage order, so
+/// they give the same bits sorted or not.
+template <class F>
+struct InHostOrder {
+  F f;
+  const std::uint32_t* slot;
+  BIODEM_HD double operator()(std::uint32_t h) const { return f(slot[h]); }
 };
 
 /// Contact forces on sphere a: its pair contacts in the order of the row (stable ids), then its
