@@ -15,7 +15,9 @@
 #      (3c) the same run with plain kernel launches instead of CUDA graphs (BIODEM_GPU_GRAPH=0),
 #      and (3d) a drum whose settle phase ends on the criterion evaluated on the device, with
 #      and without graphs; (3e) the same run with ReduceKick and KickDriftSpheres launched
-#      separately instead of the fused ReduceKickDrift (BIODEM_GPU_FUSE=0);
+#      separately instead of the fused ReduceKickDrift (BIODEM_GPU_FUSE=0); (3f) the needle drum
+#      and the settle drum of (3d) with the bodies kept in the host's order on the device
+#      instead of sorted by cell (BIODEM_GPU_SORT=0);
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -189,6 +191,21 @@ BIODEM_GPU_FUSE=0 run_biodem needles_unfused "$needles" "$OUT/needles_unfused" -
 expect_same "3e. same run without the fused body kernel" "$([ $su -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
   "a run failed (logs/needles_unfused.txt)" "$OUT/needles_a" "$OUT/needles_unfused" \
   "byte-identical to the run with ReduceKickDrift"
+
+# 3f. The bodies kept in the host's order on the device instead of sorted by cell at list builds
+# (BIODEM_GPU_SORT=0), on the needle drum and on the drum whose settle phase ends on the
+# criterion (its kinetic energy sums run in the host's body order either way): the same bytes.
+BIODEM_GPU_SORT=0 run_biodem needles_unsorted "$needles" "$OUT/needles_unsorted" --device "$DEVICE"; sn=$?
+BIODEM_GPU_SORT=0 run_biodem settle_unsorted "$settle" "$OUT/settle_unsorted" --device "$DEVICE"; ss=$?
+if [ $sn -ne 0 ] || [ $ss -ne 0 ] || [ $sa -ne 0 ] || [ $sc -ne 0 ]; then
+  record "3f. needle and settle drums with the bodies unsorted" FAIL "a run failed (logs/needles_unsorted.txt, settle_unsorted.txt)"
+elif ! diff=$(same_files "$OUT/needles_a" "$OUT/needles_unsorted"); then
+  record "3f. needle and settle drums with the bodies unsorted" FAIL "needle drum differs: $(echo $diff)"
+elif ! diff=$(same_files "$OUT/settle_graph" "$OUT/settle_unsorted"); then
+  record "3f. needle and settle drums with the bodies unsorted" FAIL "settle drum differs: $(echo $diff)"
+else
+  record "3f. needle and settle drums with the bodies unsorted" PASS "both byte-identical to the runs with the bodies sorted by cell"
+fi
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
 "$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?
