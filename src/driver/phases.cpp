@@ -180,7 +180,8 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "\nprofile '%s' (us/step over %llu steps, %llu list builds): step %.1f = drift %.1f + list %.1f + "
-                  "pairs %.1f (threads busy %.0f %%) + gather/walls/kick %.1f; outside step() %.1f",
+                  "pairs %.1f (threads busy %.0f %%) + gather/walls/kick %.1f (with the next step's drift where it "
+                  "follows); outside step() %.1f",
                   p.name.c_str(), static_cast<unsigned long long>(q.steps), static_cast<unsigned long long>(q.builds),
                   q.step_s * per, q.drift_s * per, q.list_s * per, q.pairs_s * per,
                   q.pairs_s > 0.0 ? 100.0 * q.pairs_busy_s / q.pairs_s : 0.0, q.gather_s * per,
