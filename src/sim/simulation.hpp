@@ -305,9 +305,9 @@ class Simulation {
   std::uint64_t removed_bodies_ = 0;
   double removed_mass_kg_ = 0.0;
   bool list_valid_ = false;
-  bool spheres_stale_ = false;
+  bool spheres_stale_ = false;  // sphere velocities lag the bodies' second half kick
   bool ahead_ = false;        // the next step's half kick, drift and placement are done (step(true))
-  bool ahead_moved_ = false;  // ... and a sphere moved more than skin/2 in it  // sphere velocities lag the bodies' second half kick
+  bool ahead_moved_ = false;  // ... and a sphere moved more than skin/2 in it
   bool forces_valid_ = false;
   double drum_omega_ = 0.0;
   bool drum_rotating_ = false;
