@@ -9,6 +9,7 @@
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "core/spin_team.hpp"
+#include "neighbor/candidate_scan.hpp"
 
 namespace biodem::neighbor {
 namespace {
@@ -151,6 +152,8 @@ void VerletList::build(const state::SphereStore& s) {
   // What the candidate scan reads, in cell order (contiguous loads while a row of cells is
   // scanned).
   scan_x_.resize(n);
+  scan_y_.resize(n);
+  scan_z_.resize(n);
   scan_r_.resize(n);
   scan_body_.resize(n);
   constexpr std::size_t kChunk = 256;
@@ -159,7 +162,9 @@ void VerletList::build(const state::SphereStore& s) {
   for_each_index(threads, chunks, [&](std::size_t c) {
     for (std::size_t p = c * kChunk; p < std::min(n, (c + 1) * kChunk); ++p) {
       const std::uint32_t q = g.items[p];
-      scan_x_[p] = s.position_m[q];
+      scan_x_[p] = s.position_m[q].x;
+      scan_y_[p] = s.position_m[q].y;
+      scan_z_[p] = s.position_m[q].z;
       scan_r_[p] = s.radius_m[q];
       scan_body_[p] = s.body[q];
     }
@@ -170,35 +175,52 @@ void VerletList::build(const state::SphereStore& s) {
   // no allocation once the buffers have grown), each row sorted by j; row_len_ holds their sizes.
   if (chunk_rows_.size() < chunks) chunk_rows_.resize(chunks);
   row_len_.resize(n);
+  // Along non-periodic axes a range of candidates is scanned by best_candidate_scan() (eight at
+  // a time with AVX-512F); periodic ranges, which need image shifts, by the loop below. The
+  // buffers' size is their storage; `used` counts the rows' entries.
+  const ScanFn scan = best_candidate_scan();
+  const ScanArrays arrays{g.items.data(), scan_x_.data(), scan_y_.data(), scan_z_.data(), scan_r_.data(),
+                          scan_body_.data()};
   for_each_index(threads, chunks, [&](std::size_t c) {
     auto& buf = chunk_rows_[c].rows;
-    buf.clear();
+    std::size_t used = 0;
     const std::size_t i1 = std::min(n, (c + 1) * kChunk);
     for (std::size_t i = c * kChunk; i < i1; ++i) {
-      const std::size_t row0 = buf.size();
+      const std::size_t row0 = used;
       const Vec3 xi = s.position_m[i];
       const double ri = s.radius_m[i];
       const std::uint32_t bi = s.body[i];
       const auto ii = static_cast<std::uint32_t>(i);
-      for_each_cell_around(g, domain_, g.cell_of[i], [&](std::uint32_t lo, std::uint32_t hi, const int* wrap) {
-        for (std::uint32_t p = lo; p < hi; ++p) {
-          const std::uint32_t jj = g.items[p];
-          if (jj <= ii || scan_body_[p] == bi) continue;
-          int sh[3] = {0, 0, 0};
-          Vec3 d = xi - scan_x_[p];
-          if (periodic)
+      if (!periodic) {
+        ScanRanges ranges;
+        for_each_cell_around(g, domain_, g.cell_of[i], [&](std::uint32_t lo, std::uint32_t hi, const int*) {
+          ranges.lo[ranges.count] = lo;
+          ranges.hi[ranges.count++] = hi;
+          ranges.slots += hi - lo;
+        });
+        if (buf.size() < used + ranges.slots + 8) buf.resize(std::max(2 * buf.size(), used + ranges.slots + 64));
+        used += scan(arrays, ranges, ScanQuery{xi.x, xi.y, xi.z, ri, skin_m_, ii, bi}, buf.data() + used);
+      } else {
+        for_each_cell_around(g, domain_, g.cell_of[i], [&](std::uint32_t lo, std::uint32_t hi, const int* wrap) {
+          if (buf.size() < used + (hi - lo)) buf.resize(std::max(2 * buf.size(), used + (hi - lo) + 64));
+          for (std::uint32_t p = lo; p < hi; ++p) {
+            const std::uint32_t jj = g.items[p];
+            if (jj <= ii || scan_body_[p] == bi) continue;
+            int sh[3] = {0, 0, 0};
+            Vec3 d = xi - Vec3{scan_x_[p], scan_y_[p], scan_z_[p]};
             for (int k = 0; k < 3; ++k)
               if (domain_.periodic[k]) {
                 sh[k] = g.wrap_of[i][k] - g.wrap_of[jj][k] + wrap[k];
                 d[k] -= sh[k] * len[k];
               }
-          const double cut = ri + scan_r_[p] + skin_m_;
-          if (norm2(d) < cut * cut) buf.push_back({jj, pack_image(sh[0], sh[1], sh[2])});
-        }
-      });
-      std::sort(buf.begin() + static_cast<std::ptrdiff_t>(row0), buf.end(),
+            const double cut = ri + scan_r_[p] + skin_m_;
+            if (norm2(d) < cut * cut) buf[used++] = {jj, pack_image(sh[0], sh[1], sh[2])};
+          }
+        });
+      }
+      std::sort(buf.begin() + static_cast<std::ptrdiff_t>(row0), buf.begin() + static_cast<std::ptrdiff_t>(used),
                 [](const RowEntry& a, const RowEntry& b) { return a.j != b.j ? a.j < b.j : a.image < b.image; });
-      row_len_[i] = static_cast<std::uint32_t>(buf.size() - row0);
+      row_len_[i] = static_cast<std::uint32_t>(used - row0);
     }
   });
 

@@ -16,6 +16,7 @@
 
 #include "contact/contact_model.hpp"
 #include "core/vec3.hpp"
+#include "neighbor/candidate_scan.hpp"
 #include "state/particle_store.hpp"
 
 namespace biodem::neighbor {
@@ -91,10 +92,7 @@ class VerletList {
   std::size_t builds_ = 0;
   std::vector<Vec3> built_at_;
   // Scratch of build(), kept between builds so that a build allocates nothing once grown.
-  struct RowEntry {
-    std::uint32_t j;
-    std::int32_t image;
-  };
+  using RowEntry = ListEntry;
   // One cache line per chunk's vector: the threads push into neighbouring chunks at once, and
   // vector headers sharing a line made every push_back a transfer between cores.
   struct alignas(64) ChunkRows {
@@ -108,7 +106,7 @@ class VerletList {
   std::vector<std::int32_t> spare_image_;
   std::vector<contact::ContactHistory> spare_history_;
   std::vector<std::uint8_t> spare_touching_;
-  std::vector<Vec3> scan_x_;
+  std::vector<double> scan_x_, scan_y_, scan_z_;
   std::vector<double> scan_r_;
   std::vector<std::uint32_t> scan_body_;
 };

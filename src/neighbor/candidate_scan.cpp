@@ -1,0 +1,47 @@
+#include "neighbor/candidate_scan.hpp"
+
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
+
+namespace biodem::neighbor {
+
+std::size_t scan_candidates_scalar(const ScanArrays& a, const ScanRanges& ranges, const ScanQuery& q, ListEntry* out) {
+  std::size_t u = 0;
+  for (int r = 0; r < ranges.count; ++r)
+    for (std::uint32_t p = ranges.lo[r]; p < ranges.hi[r]; ++p) {
+      const std::uint32_t j = a.item[p];
+      if (j <= q.index || a.body[p] == q.body) continue;
+      const double dx = q.x - a.x[p], dy = q.y - a.y[p], dz = q.z - a.z[p];
+      const double cut = q.r + a.r[p] + q.skin;
+      if (dx * dx + dy * dy + dz * dz < cut * cut) out[u++] = {j, 0};
+    }
+  return u;
+}
+
+namespace {
+std::atomic<bool> g_force_scalar{false};
+
+bool cpu_has_avx512() {
+#if defined(BIODEM_X86_LANES)
+  const char* v = std::getenv("BIODEM_LIST_SCAN");
+  if (v != nullptr && std::strcmp(v, "scalar") == 0) return false;
+  return __builtin_cpu_supports("avx512f");
+#else
+  return false;
+#endif
+}
+}  // namespace
+
+ScanFn best_candidate_scan() {
+  static const bool avx512 = cpu_has_avx512();
+#if defined(BIODEM_X86_LANES)
+  if (avx512 && !g_force_scalar.load(std::memory_order_relaxed)) return &scan_candidates_avx512;
+#endif
+  (void)avx512;
+  return &scan_candidates_scalar;
+}
+
+void force_scalar_candidate_scan(bool scalar) { g_force_scalar.store(scalar, std::memory_order_relaxed); }
+
+}  // namespace biodem::neighbor
