@@ -262,15 +262,15 @@ bool Simulation::step_job(bool drift, bool kick, bool ahead_next) {
       if (ahead_next) ahead_moved_by_[k] = static_cast<std::uint8_t>(drift_bodies(b0, b1, have_built, limit2));
     });
   });
+  if (drift) {
+    spheres_stale_ = false;
+    if (profile_on_) profile_.drift_s += drift_end_s;
+    if (rebuild) return false;  // left after the drift: no forces, no drift made ahead
+  }
   if (ahead_next) {
     ahead_ = true;
     ahead_moved_ = false;
     for (std::uint8_t m : ahead_moved_by_) ahead_moved_ = ahead_moved_ || m != 0;
-  }
-  if (drift) {
-    spheres_stale_ = false;
-    if (profile_on_) profile_.drift_s += drift_end_s;
-    if (rebuild) return false;
   }
   std::size_t pair_contacts = 0, wall_contacts = 0;
   double busy_s = 0.0;
