@@ -1,10 +1,14 @@
 // The AVX-512F candidate scan (neighbor/candidate_scan.hpp). Built with -mavx512f and without
 // FMA contraction (CMakeLists.txt): the distance and cut-off are the scalar scan's IEEE
 // operations in the same order, so both keep the same candidates. Only intrinsics and this one
-// function: no inline function of the baseline build is compiled here.
-#include <immintrin.h>
-
+// function: no inline function of the baseline build is compiled here. Compiled without
+// -mavx512f (targets in other directories that list the core's sources, e.g. the sanitizer
+// replays: the file's options are set in the top directory only), it is empty; those targets
+// do not define BIODEM_X86_LANES, so nothing refers to it.
 #include "neighbor/candidate_scan.hpp"
+
+#if defined(__AVX512F__)
+#include <immintrin.h>
 
 static_assert(sizeof(biodem::neighbor::ListEntry) == 8, "a ListEntry is one 64-bit lane");
 
@@ -39,3 +43,5 @@ std::size_t scan_candidates_avx512(const ScanArrays& a, const ScanRanges& ranges
 }
 
 }  // namespace biodem::neighbor
+
+#endif  // __AVX512F__
