@@ -70,14 +70,19 @@ class Engine final : public DeviceEngine {
   Engine(sim::Simulation& host, std::string name) : host_(host), name_(std::move(name)) {
     // Switches for tests and comparisons (docs/gpu.md): BIODEM_GPU_FUSE=0 launches ReduceKick
     // and KickDriftSpheres separately between list checks.
-    const char* fuse = std::getenv("BIODEM_GPU_FUSE");
-    fuse_ = !(fuse && std::string(fuse) == "0");
+    if (const char* fuse = std::getenv("BIODEM_GPU_FUSE"); fuse && *fuse) {
+      if (std::string(fuse) != "0" && std::string(fuse) != "1")
+        throw Error("BIODEM_GPU_FUSE = '" + std::string(fuse) + "': expected 0 or 1");
+      fuse_ = std::string(fuse) == "1";
+    }
     // BIODEM_GPU_SORT=N: bodies sorted by cell at the list build of every upload and at every
     // N-th build after it; 0: never (the host's order throughout).
     if (const char* sort = std::getenv("BIODEM_GPU_SORT"); sort && *sort) {
       char* end = nullptr;
       const unsigned long v = std::strtoul(sort, &end, 10);
-      if (*end == '\0') sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
+      if (*end != '\0' || *sort == '-')
+        throw Error("BIODEM_GPU_SORT = '" + std::string(sort) + "': expected a whole number of list builds (0: never)");
+      sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
     }
   }
 

@@ -460,8 +460,22 @@ struct Forces {
   }
 };
 
-/// Body force (gravity plus its spheres' contact forces, in template order) and torque about the
-/// centre of mass; then, when `kick`, the second half kick (the CPU engine's step, parts 5-6).
+/// Force on body k (gravity plus its spheres' contact forces, in template order) and torque
+/// about its centre of mass (ReduceKick, ReduceKickDrift).
+BIODEM_HD inline void body_sums(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, const Vec3& gravity, Vec3& f,
+                                Vec3& t) {
+  const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+  const Vec3 x = b.position[k];
+  f = b.mass[k] * gravity;
+  t = Vec3{};
+  for (std::uint32_t i = s0; i < s0 + ns; ++i) {
+    f += s.force[i];
+    t += s.torque[i] + cross(s.position[i] - x, s.force[i]);
+  }
+}
+
+/// Body force and torque (body_sums); then, when `kick`, the second half kick (the CPU engine's
+/// step, parts 5-6).
 struct ReduceKick {
   BodyArrays b;
   SphereArrays s;
@@ -471,12 +485,9 @@ struct ReduceKick {
   const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
-    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
-    Vec3 f = b.mass[k] * gravity, t;
-    for (std::uint32_t i = s0; i < s0 + ns; ++i) {
-      f += s.force[i];
-      t += s.torque[i] + cross(s.position[i] - b.position[k], s.force[i]);
-    }
+    const std::uint32_t ns = b.sphere_count[k];
+    Vec3 f, t;
+    body_sums(b, s, k, gravity, f, t);
     b.force[k] = f;
     b.torque[k] = t;
     if (!kick) return;
@@ -499,14 +510,11 @@ struct ReduceKickDrift {
   const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
-    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+    const std::uint32_t ns = b.sphere_count[k];
     const double m = b.mass[k];
     Vec3 x = b.position[k];
-    Vec3 f = m * gravity, t;
-    for (std::uint32_t i = s0; i < s0 + ns; ++i) {
-      f += s.force[i];
-      t += s.torque[i] + cross(s.position[i] - x, s.force[i]);
-    }
+    Vec3 f, t;
+    body_sums(b, s, k, gravity, f, t);
     b.force[k] = f;
     b.torque[k] = t;
     const Vec3 inertia = b.inertia[k];

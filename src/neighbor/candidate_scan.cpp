@@ -3,6 +3,9 @@
 #include <atomic>
 #include <cstdlib>
 #include <cstring>
+#include <string>
+
+#include "core/error.hpp"
 
 namespace biodem::neighbor {
 
@@ -24,12 +27,17 @@ std::atomic<bool> g_force_scalar{false};
 
 bool cpu_has_avx512() {
 #if defined(BIODEM_X86_LANES)
-  const char* v = std::getenv("BIODEM_LIST_SCAN");
-  if (v != nullptr && std::strcmp(v, "scalar") == 0) return false;
-  return __builtin_cpu_supports("avx512f");
+  const bool has = __builtin_cpu_supports("avx512f");
 #else
-  return false;
+  const bool has = false;
 #endif
+  const char* v = std::getenv("BIODEM_LIST_SCAN");
+  if (v == nullptr || *v == '\0') return has;
+  if (std::strcmp(v, "scalar") == 0) return false;
+  if (std::strcmp(v, "avx512") != 0)
+    throw Error("BIODEM_LIST_SCAN = '" + std::string(v) + "': expected scalar or avx512");
+  if (!has) throw Error("BIODEM_LIST_SCAN = avx512: this CPU or build has no AVX-512F candidate scan");
+  return true;
 }
 }  // namespace
 

@@ -4,6 +4,8 @@
 // simulation_list.cpp, the sphere-sphere contacts in pair_pass.cpp.
 #include "sim/simulation.hpp"
 
+#include "neighbor/candidate_scan.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -27,6 +29,7 @@ Simulation::Simulation(std::vector<shapes::ClumpTemplate> templates, std::vector
   cohesion_ = pairs_.any_cohesion();
   rolling_ = pairs_.any_rolling();
   pair_kernel_ = pair_kernel_from_environment();
+  (void)neighbor::best_candidate_scan();  // a bad BIODEM_LIST_SCAN stops here, before any step
 }
 
 std::uint32_t Simulation::add_wall(const WallSpec& w) {
