@@ -252,6 +252,9 @@ class Simulation {
   /// half the skin since the last list build (or the list has no build positions).
   bool kick_drift_place();
   int drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
+  /// drift_bodies; with KickFirst preceded, body by body, by reduce_and_kick(.., true)'s work.
+  template <bool KickFirst>
+  int advance_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
   /// The whole step in one parallel region when no list rebuild is due (false: drifted only).
   bool step_in_one_region(bool ahead_next);
   /// The team's job: (drift, barrier, rebuild test,) pair rows, barrier, gather/walls/sums/kick.
@@ -320,6 +323,7 @@ class Simulation {
   std::vector<std::uint8_t> ahead_moved_by_;     // per block: the same for the drift made ahead
   std::vector<std::uint8_t> block_moved_;        // per block: a sphere moved more than skin/2
   static constexpr int kChunksPerThread = 8;     // work chunks per thread (stealing, see ChunkCursors)
+  static constexpr std::size_t kGatherPiece = 256;  // bodies per piece of the gather-kick-drift pass
   int threads_ = 1;                              // team size the chunks were cut for
   std::vector<std::size_t> block_body_;          // work chunks: bodies [block_body_[k], block_body_[k+1])
   std::pair<std::size_t, std::size_t> blocks_for_;  // (bodies, threads) the blocks were cut for

@@ -123,17 +123,27 @@ void Simulation::step(bool next_follows) {
 }
 
 int Simulation::drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2) {
-  // First half kick, drift, the body's spheres placed, and the list displacement test.
+  return advance_bodies<false>(b0, b1, have_built, limit2);
+}
+
+template <bool KickFirst>
+int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2) {
+  // With KickFirst: each body's force and torque sums and the second half kick of this step
+  // (the operations of reduce_and_kick), then, as without: the first half kick of the next step,
+  // the drift, the body's spheres placed, and the list displacement test. One pass, with a
+  // body's values kept in registers from one part to the next: the same operations as
+  // reduce_and_kick followed by drift_bodies, so the same bits.
   const double h = 0.5 * dt_s_, dt = dt_s_;
   const std::vector<Vec3>& built = list_.built_at();
   int moved = 0;
-  auto place_and_test = [&](std::size_t b) {
-    place_spheres_of(b);
-    if (have_built) {
-      const std::uint32_t s0 = bodies_.first_sphere[b], s1 = s0 + bodies_.sphere_count[b];
+  auto test = [&](std::uint32_t s0, std::uint32_t s1) {
+    if (have_built)
       for (std::uint32_t s = s0; s < s1; ++s)
         if (!(norm2(spheres_.position_m[s] - built[s]) <= limit2)) moved = 1;  // NaN also triggers a (failing) build
-    }
+  };
+  auto place_and_test = [&](std::size_t b) {
+    place_spheres_of(b);
+    test(bodies_.first_sphere[b], bodies_.first_sphere[b] + bodies_.sphere_count[b]);
   };
   // Clumps turn by the free-rotor splitting, kGroup at a time (free_rotation_steps: the same bits
   // as one at a time, with the bodies' dependent chains overlapping). A group that is not full is
@@ -161,11 +171,38 @@ int Simulation::drift_bodies(std::size_t b0, std::size_t b1, bool have_built, do
     n_waiting = 0;
   };
   for (std::size_t b = b0; b < b1; ++b) {
-    if (integrate::kick_and_drift_but_turn(bodies_.position_m[b], bodies_.velocity_m_s[b],
-                                           bodies_.angular_velocity_rad_s[b], bodies_.angular_momentum_kg_m2_s[b],
-                                           bodies_.mass_kg[b], bodies_.inertia_kg_m2[b], bodies_.sphere_count[b],
-                                           bodies_.force_n[b], bodies_.torque_n_m[b], h, dt)) {
-      place_and_test(b);
+    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
+    const double mass = bodies_.mass_kg[b];
+    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b],
+         l = bodies_.angular_momentum_kg_m2_s[b], f, t;
+    if constexpr (KickFirst) {
+      f = mass * gravity_;
+      for (std::uint32_t s = s0; s < s0 + ns; ++s) {
+        f += spheres_.force_n[s];
+        t += spheres_.torque_n_m[s] + cross(spheres_.position_m[s] - x, spheres_.force_n[s]);
+      }
+      bodies_.force_n[b] = f;
+      bodies_.torque_n_m[b] = t;
+      integrate::half_kick(v, w, l, bodies_.orientation[b], mass, inertia, ns, f, t, h);
+    } else {
+      f = bodies_.force_n[b];
+      t = bodies_.torque_n_m[b];
+    }
+    const bool turned = integrate::kick_and_drift_but_turn(x, v, w, l, mass, inertia, ns, f, t, h, dt);
+    bodies_.position_m[b] = x;
+    bodies_.velocity_m_s[b] = v;
+    bodies_.angular_velocity_rad_s[b] = w;
+    bodies_.angular_momentum_kg_m2_s[b] = l;
+    if (turned) {
+      if (ns == 1 && spheres_.offset_body_m[s0] == Vec3{}) {  // place_spheres_of's first case
+        spheres_.position_m[s0] = x;
+        spheres_.velocity_m_s[s0] = v;
+        spheres_.angular_velocity_rad_s[s0] = w;
+        if (have_built && !(norm2(x - built[s0]) <= limit2)) moved = 1;
+      } else {
+        place_and_test(b);
+      }
       continue;
     }
     waiting[n_waiting++] = b;
@@ -252,14 +289,21 @@ bool Simulation::step_job(bool drift, bool kick, bool ahead_next) {
     team().barrier();
     if (profile_on_ && me == 0) pair_end_s = seconds_since(t0);
     gather_chunks.for_each(me, team_size, [&](int k) {
-      const std::size_t b0 = block_body_[k], b1 = block_body_[k + 1];
-      if (b0 == b1) return;
-      per[me].walls += gather_and_walls<Cohesion, Rolling>(bodies_.first_sphere[b0],
-                                                           bodies_.first_sphere[b1 - 1] + bodies_.sphere_count[b1 - 1]);
-      reduce_and_kick(b0, b1, kick);
-      // The next step's half kick, drift and placement of the block (the gather above read only
-      // the block's own spheres, and the pair rows that read the others' ended at the barrier).
-      if (ahead_next) ahead_moved_by_[k] = static_cast<std::uint8_t>(drift_bodies(b0, b1, have_built, limit2));
+      // In pieces of at most kGatherPiece bodies, so that a piece's data stay in the core's
+      // cache from the gather to the drift (each body's operations are the same whatever the
+      // pieces: the results do not depend on them).
+      for (std::size_t p0 = block_body_[k], b1 = block_body_[k + 1]; p0 < b1; p0 += kGatherPiece) {
+        const std::size_t p1 = std::min(b1, p0 + kGatherPiece);
+        per[me].walls += gather_and_walls<Cohesion, Rolling>(
+            bodies_.first_sphere[p0], bodies_.first_sphere[p1 - 1] + bodies_.sphere_count[p1 - 1]);
+        // Sums and kick, and with ahead_next the next step's half kick, drift and placement of
+        // the piece (the gather above read only the piece's own spheres, and the pair rows that
+        // read the others' ended at the barrier).
+        if (ahead_next)
+          ahead_moved_by_[k] |= static_cast<std::uint8_t>(advance_bodies<true>(p0, p1, have_built, limit2));
+        else
+          reduce_and_kick(p0, p1, kick);
+      }
     });
   });
   if (drift) {
