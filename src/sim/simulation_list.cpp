@@ -197,18 +197,22 @@ void Simulation::update_wall_candidates() {
       if (old.wall[k] == w) return k;
     return -1;
   };
-  // Pass 1: count the candidates of each sphere; pass 2: fill them, carrying the history over.
-  // Chunks of spheres on the step's thread team (core/spin_team.hpp: its workers are spinning).
+  // Pass 1: each sphere's candidate walls (a flag per sphere and wall) and their count; pass 2:
+  // fill the slots, carrying the history over. Chunks of spheres on the step's thread team
+  // (core/spin_team.hpp: its workers are spinning).
   constexpr std::size_t kChunk = 256;
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
   const int threads = n >= kParallelThreshold ? omp_get_max_threads() : 1;
   std::vector<std::uint32_t> count(n + 1, 0);
+  std::vector<std::uint8_t> is_candidate(n * nw);
   for_each_index(threads, chunks, [&](std::size_t ch) {
     for (std::size_t i = ch * kChunk; i < std::min(n, (ch + 1) * kChunk); ++i) {
       std::uint32_t c = 0;
       for (std::size_t w = 0; w < nw; ++w) {
         const std::int64_t k = old_slot(i, w);
-        if (candidate(i, w) || (k >= 0 && old.touching[k])) ++c;
+        const bool keep = candidate(i, w) || (k >= 0 && old.touching[k]);
+        is_candidate[i * nw + w] = keep ? 1 : 0;
+        c += keep ? 1 : 0;
       }
       count[i + 1] = c;
     }
@@ -223,10 +227,9 @@ void Simulation::update_wall_candidates() {
     for (std::size_t i = ch * kChunk; i < std::min(n, (ch + 1) * kChunk); ++i) {
       std::uint32_t q = wc.start[i];
       for (std::size_t w = 0; w < nw; ++w) {
-        const std::int64_t k = old_slot(i, w);
-        if (!(candidate(i, w) || (k >= 0 && old.touching[k]))) continue;
+        if (!is_candidate[i * nw + w]) continue;
         wc.wall[q] = static_cast<std::uint32_t>(w);
-        if (k >= 0) {
+        if (const std::int64_t k = old_slot(i, w); k >= 0) {
           wc.history[q] = old.history[k];
           wc.touching[q] = old.touching[k];
         }
