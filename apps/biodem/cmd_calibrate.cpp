@@ -13,7 +13,7 @@
 namespace biodem::cli {
 
 Action register_calibrate(CLI::App& app) {
-  auto* sub = app.add_subcommand("calibrate", "Bulk-test calibration campaign (NSGA-II over case parameters)");
+  auto* sub = app.add_subcommand("calibrate", kCalibrateSummary);
   static std::string calib_path, out_dir;
   static int jobs = 1;
   static bool resume = false;

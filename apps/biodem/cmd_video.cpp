@@ -25,6 +25,7 @@
 #include "analysis/video_frames.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/png_mat.hpp"
 #include "output/progress.hpp"
 #include "output/series_csv.hpp"
 
@@ -81,7 +82,7 @@ void write_check_image(const fs::path& path, const cv::Mat& grey, const analysis
   for (const auto& q : analysis::free_surface_profile_mask(mask, disc.cx_px, disc.cy_px, disc.radius_px, sp))
     cv::circle(rgb, P(disc.cx_px + sign * q.x, disc.cy_px - q.y), 1 << kShift, cv::Scalar(255, 0, 0),
                cv::FILLED, cv::LINE_AA, kShift);
-  if (!cv::imwrite(path.string(), rgb)) throw Error("cannot write '" + path.string() + "'");
+  output::write_png(path.string(), rgb);
 }
 
 // First 10 names of a list, then the count of the others.
@@ -297,11 +298,7 @@ int run_video(const VideoOptions& o) {
 }  // namespace
 
 Action register_video(CLI::App& app) {
-  auto* sub = app.add_subcommand(
-      "video",
-      "Centroid angle alpha and surface r^2 series from a folder of back-lit drum frames "
-      "(PNG/JPEG/TIFF, sorted by name) or a video file (.avi, .mp4, ...) into DIR/series.csv, "
-      "ready for analyze");
+  auto* sub = app.add_subcommand("video", kVideoSummary);
   auto o = std::make_shared<VideoOptions>();
   sub->add_option("FRAMES", o->frames,
                   "folder of frames (.png .jpg .jpeg .tif .tiff) or a video file OpenCV can decode")

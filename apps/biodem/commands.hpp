@@ -14,4 +14,19 @@ Action register_compare(CLI::App& app);
 Action register_video(CLI::App& app);
 Action register_calibrate(CLI::App& app);
 
+/// The one-line summaries of `biodem --help`.
+inline constexpr const char* kVideoSummary =
+    "Centroid angle alpha and surface r^2 series from a folder of back-lit drum frames "
+    "(PNG/JPEG/TIFF, sorted by name) or a video file (.avi, .mp4, ...) into DIR/series.csv, "
+    "ready for analyze";
+inline constexpr const char* kCalibrateSummary = "Bulk-test calibration campaign (NSGA-II over case parameters)";
+
+#if BIODEM_FORWARDS
+/// True for the commands the light `biodem` hands to `biodem-full` (forward.cpp).
+bool forwarded(const char* command);
+/// Runs `biodem-full` from the same folder with the same arguments (exec); returns only on
+/// failure, with the exit status after an error message.
+int forward(char** argv);
+#endif
+
 }  // namespace biodem::cli

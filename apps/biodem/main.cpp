@@ -1,4 +1,6 @@
-// biodem command line: one program, sub-commands (SPEC 11).
+// biodem command line: one program, sub-commands (SPEC 11). Built twice: `biodem-full` with
+// every command, and `biodem` (BIODEM_FORWARDS) without the libraries of video and calibrate,
+// which it hands to biodem-full (forward.cpp).
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <exception>
@@ -10,6 +12,9 @@
 #include "core/error.hpp"
 
 int main(int argc, char** argv) {
+#if BIODEM_FORWARDS
+  if (argc > 1 && biodem::cli::forwarded(argv[1])) return biodem::cli::forward(argv);
+#endif
   CLI::App app{"biodem: DEM of cohesive, elongated biomass powders in a rotating drum"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "biodem 0.1.0");

@@ -32,7 +32,8 @@ using TestRunner = std::function<TestRun(const TestJob&)>;
 /// `dir`/stdout.txt), or re-uses a finished earlier run of the same text; reads its responses.csv.
 TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text);
 
-/// This process's executable (/proc/self/exe): `biodem` when called from the command line.
+/// The program that runs the test cases: this process's executable (/proc/self/exe), or the light
+/// `biodem` beside it when this is `biodem-full` (which runs `calibrate` for it).
 std::string current_executable();
 
 }  // namespace biodem::calib

@@ -9,15 +9,15 @@
 #include <utility>
 #include <vector>
 
-#if BIODEM_HAVE_OPENCV
-#include <opencv2/imgcodecs.hpp>
-#endif
 
 #include "analysis/centroid_angle.hpp"
 #if BIODEM_HAVE_OPENCV
 #include "analysis/render_frame.hpp"
 #endif
 #include "core/error.hpp"
+#if BIODEM_HAVE_OPENCV
+#include "output/png_mat.hpp"
+#endif
 
 namespace biodem::driver {
 
@@ -132,7 +132,7 @@ void Runner::frame() {
   char name[64];
   std::snprintf(name, sizeof name, "%06zu.png", frame_index_++);
   const std::string path = opt_.out_dir + "/frames/" + name;
-  if (!cv::imwrite(path, img)) throw Error(path + ": cannot write frame");
+  output::write_png(path, img);
 #endif
 }
 

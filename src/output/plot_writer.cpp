@@ -9,10 +9,10 @@
 #include <memory>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.hpp"
+#include "output/png_mat.hpp"
 
 namespace biodem::output {
 
@@ -431,13 +431,7 @@ void write_plot(const Plot& plot, const std::filesystem::path& stem) {
     out << plot_to_svg(plot);
     if (!out) throw Error("cannot write plot '" + svg_path.string() + "'");
   }
-  bool ok = false;
-  try {
-    ok = cv::imwrite(png_path.string(), plot_to_image(plot));
-  } catch (const cv::Exception& e) {
-    throw Error("cannot write plot '" + png_path.string() + "': " + e.what());
-  }
-  if (!ok) throw Error("cannot write plot '" + png_path.string() + "'");
+  write_png(png_path.string(), plot_to_image(plot));
 }
 
 }  // namespace biodem::output
