@@ -170,10 +170,59 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
     }
     n_waiting = 0;
   };
+  // A single sphere at its body's centre with equal moments (spins_as_sphere, the glass beads'
+  // bodies): the same operations as the general path below, on pointers taken once (the
+  // general path reloads each array's address at each access), without the angular momentum
+  // (unused by such a body) and without the clump branches.
+  const std::uint32_t* const first = bodies_.first_sphere.data();
+  const std::uint32_t* const count = bodies_.sphere_count.data();
+  const double* const mass_of = bodies_.mass_kg.data();
+  const Vec3* const inertia_of = bodies_.inertia_kg_m2.data();
+  Vec3* const body_x = bodies_.position_m.data();
+  Vec3* const body_v = bodies_.velocity_m_s.data();
+  Vec3* const body_w = bodies_.angular_velocity_rad_s.data();
+  Vec3* const body_f = bodies_.force_n.data();
+  Vec3* const body_t = bodies_.torque_n_m.data();
+  const Vec3* const sphere_f = spheres_.force_n.data();
+  const Vec3* const sphere_t = spheres_.torque_n_m.data();
+  const Vec3* const offset = spheres_.offset_body_m.data();
+  Vec3* const sphere_x = spheres_.position_m.data();
+  Vec3* const sphere_v = spheres_.velocity_m_s.data();
+  Vec3* const sphere_w = spheres_.angular_velocity_rad_s.data();
+  const Vec3* const built_x = built.data();
+  const Vec3 gravity = gravity_;
   for (std::size_t b = b0; b < b1; ++b) {
-    const std::uint32_t s0 = bodies_.first_sphere[b], ns = bodies_.sphere_count[b];
-    const double mass = bodies_.mass_kg[b];
-    const Vec3 inertia = bodies_.inertia_kg_m2[b];
+    const std::uint32_t s0 = first[b], ns = count[b];
+    const double mass = mass_of[b];
+    const Vec3 inertia = inertia_of[b];
+    if (integrate::spins_as_sphere(ns, inertia) && offset[s0] == Vec3{}) {
+      Vec3 x = body_x[b], v = body_v[b], w = body_w[b], f, t;
+      if constexpr (KickFirst) {  // reduce_and_kick's operations for one sphere
+        const Vec3 fs = sphere_f[s0];
+        f = mass * gravity;
+        f += fs;
+        t += sphere_t[s0] + cross(sphere_x[s0] - x, fs);
+        body_f[b] = f;
+        body_t[b] = t;
+        v += (h / mass) * f;  // integrate::half_kick
+        w += (h / inertia.x) * t;
+      } else {
+        f = body_f[b];
+        t = body_t[b];
+      }
+      const double inv_m = 1.0 / mass;  // integrate::kick_and_drift_but_turn
+      v += (h * inv_m) * f;
+      x += dt * v;
+      w += (h / inertia.x) * t;
+      body_x[b] = x;
+      body_v[b] = v;
+      body_w[b] = w;
+      sphere_x[s0] = x;  // place_spheres_of's first case
+      sphere_v[s0] = v;
+      sphere_w[s0] = w;
+      if (have_built && !(norm2(x - built_x[s0]) <= limit2)) moved = 1;
+      continue;
+    }
     Vec3 x = bodies_.position_m[b], v = bodies_.velocity_m_s[b], w = bodies_.angular_velocity_rad_s[b],
          l = bodies_.angular_momentum_kg_m2_s[b], f, t;
     if constexpr (KickFirst) {
