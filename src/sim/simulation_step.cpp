@@ -13,6 +13,7 @@
 #include "core/spin_team.hpp"
 #include "integrate/rigid_rotation.hpp"
 #include "integrate/velocity_verlet.hpp"
+#include "sim/sphere_body_lanes.hpp"
 
 #include <omp.h>
 
@@ -191,7 +192,30 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
   Vec3* const sphere_w = spheres_.angular_velocity_rad_s.data();
   const Vec3* const built_x = built.data();
   const Vec3 gravity = gravity_;
+  auto single_sphere = [&](std::size_t b) {
+    return integrate::spins_as_sphere(count[b], inertia_of[b]) && offset[first[b]] == Vec3{};
+  };
+  // Runs of eight such bodies owning eight consecutive spheres go through AVX-512F lanes when
+  // the pair kernel has 8 lanes (sim/sphere_body_lanes.hpp: the same operations per lane as the
+  // scalar path below).
+  int (*lanes)(const SphereBodyArrays&, std::size_t) = nullptr;
+  constexpr std::size_t width = 8;
+#if defined(BIODEM_X86_LANES)
+  if (pair_kernel_ == PairKernel::Lanes8) lanes = &advance_sphere_bodies_lanes8<KickFirst>;
+#endif
+  const SphereBodyArrays arrays{first,    mass_of,  inertia_of, body_x,   body_v,  body_w,  body_f,  body_t,
+                                sphere_f, sphere_t, sphere_x,   sphere_v, sphere_w, built_x, gravity, h,
+                                dt,       limit2,   have_built};
   for (std::size_t b = b0; b < b1; ++b) {
+    if (lanes != nullptr && b + width <= b1) {
+      bool all = first[b + width - 1] - first[b] == width - 1;
+      for (std::size_t k = 0; k < width && all; ++k) all = single_sphere(b + k);
+      if (all) {
+        moved |= lanes(arrays, b);
+        b += width - 1;
+        continue;
+      }
+    }
     const std::uint32_t s0 = first[b], ns = count[b];
     const double mass = mass_of[b];
     const Vec3 inertia = inertia_of[b];
