@@ -195,13 +195,19 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
   auto single_sphere = [&](std::size_t b) {
     return integrate::spins_as_sphere(count[b], inertia_of[b]) && offset[first[b]] == Vec3{};
   };
-  // Runs of eight such bodies owning eight consecutive spheres go through AVX-512F lanes when
-  // the pair kernel has 8 lanes (sim/sphere_body_lanes.hpp: the same operations per lane as the
-  // scalar path below).
+  // Runs of eight (four) such bodies owning as many consecutive spheres go through AVX-512F
+  // (AVX2) lanes when the pair kernel has 8 (4) lanes (sim/sphere_body_lanes.hpp: the same
+  // operations per lane as the scalar path below).
   int (*lanes)(const SphereBodyArrays&, std::size_t) = nullptr;
-  constexpr std::size_t width = 8;
+  std::size_t width = 1;
 #if defined(BIODEM_X86_LANES)
-  if (pair_kernel_ == PairKernel::Lanes8) lanes = &advance_sphere_bodies_lanes8<KickFirst>;
+  if (pair_kernel_ == PairKernel::Lanes8) {
+    lanes = &advance_sphere_bodies_lanes8<KickFirst>;
+    width = 8;
+  } else if (pair_kernel_ == PairKernel::Lanes4) {
+    lanes = &advance_sphere_bodies_lanes4<KickFirst>;
+    width = 4;
+  }
 #endif
   const SphereBodyArrays arrays{first,    mass_of,  inertia_of, body_x,   body_v,  body_w,  body_f,  body_t,
                                 sphere_f, sphere_t, sphere_x,   sphere_v, sphere_w, built_x, gravity, h,

@@ -32,6 +32,8 @@ struct SphereBodyArrays {
 /// returns 1 when one of their spheres moved more than the list allows (or a position is not
 /// finite), else 0. AVX-512F; the caller runs it only where the CPU has it.
 template <bool KickFirst> int advance_sphere_bodies_lanes8(const SphereBodyArrays& a, std::size_t b);
+/// The same four at a time: AVX2.
+template <bool KickFirst> int advance_sphere_bodies_lanes4(const SphereBodyArrays& a, std::size_t b);
 
 }  // namespace biodem::sim
 
@@ -58,6 +60,18 @@ inline Vec3T<V> load_run3(const Vec3* base) {
             V(_mm512_permutex2var_pd(zs, _mm512_setr_epi64(0, 1, 2, 3, 4, 9, 12, 15), c))};
   }
 #endif
+#if defined(__AVX2__)
+  if constexpr (V::size() == 4) {
+    const double* p = &base[0].x;
+    // a = x0 y0 z0 x1, b = y1 z1 x2 y2, c = z2 x3 y3 z3: blends, then one lane permute each.
+    const __m256d a = _mm256_loadu_pd(p), b = _mm256_loadu_pd(p + 4), c = _mm256_loadu_pd(p + 8);
+    const __m256d xs = _mm256_blend_pd(_mm256_blend_pd(a, b, 0b0100), c, 0b0010);  // a0 c1 b2 a3
+    const __m256d ys = _mm256_blend_pd(_mm256_blend_pd(a, b, 0b1001), c, 0b0100);  // b0 a1 c2 b3
+    const __m256d zs = _mm256_blend_pd(_mm256_blend_pd(a, b, 0b0010), c, 0b1001);  // c0 b1 a2 c3
+    return {V(_mm256_permute4x64_pd(xs, _MM_SHUFFLE(1, 2, 3, 0))), V(_mm256_permute4x64_pd(ys, _MM_SHUFFLE(2, 3, 0, 1))),
+            V(_mm256_permute4x64_pd(zs, _MM_SHUFFLE(3, 0, 1, 2)))};
+  }
+#endif
   return {V([&](auto l) { return base[l].x; }), V([&](auto l) { return base[l].y; }),
           V([&](auto l) { return base[l].z; })};
 }
@@ -75,6 +89,26 @@ inline void store_run3(Vec3* base, const Vec3T<V>& v) {
     _mm512_storeu_pd(p, _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 1, 8, 3, 4, 9, 6, 7), z));
     _mm512_storeu_pd(p + 8, _mm512_permutex2var_pd(b, _mm512_setr_epi64(10, 1, 2, 11, 4, 5, 12, 7), z));
     _mm512_storeu_pd(p + 16, _mm512_permutex2var_pd(c, _mm512_setr_epi64(0, 13, 2, 3, 14, 5, 6, 15), z));
+    return;
+  }
+#endif
+#if defined(__AVX2__)
+  if constexpr (V::size() == 4) {
+    double* p = &base[0].x;
+    const __m256d x = static_cast<__m256d>(v.x), y = static_cast<__m256d>(v.y), z = static_cast<__m256d>(v.z);
+    // x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3
+    const __m256d a = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(x, _MM_SHUFFLE(1, 0, 0, 0)),
+                                                      _mm256_permute4x64_pd(y, _MM_SHUFFLE(0, 0, 0, 0)), 0b0010),
+                                      _mm256_permute4x64_pd(z, _MM_SHUFFLE(0, 0, 0, 0)), 0b0100);
+    const __m256d b = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(y, _MM_SHUFFLE(2, 1, 1, 1)),
+                                                      _mm256_permute4x64_pd(z, _MM_SHUFFLE(1, 1, 1, 1)), 0b0010),
+                                      _mm256_permute4x64_pd(x, _MM_SHUFFLE(2, 2, 2, 2)), 0b0100);
+    const __m256d c = _mm256_blend_pd(_mm256_blend_pd(_mm256_permute4x64_pd(z, _MM_SHUFFLE(3, 2, 2, 2)),
+                                                      _mm256_permute4x64_pd(x, _MM_SHUFFLE(3, 3, 3, 3)), 0b0010),
+                                      _mm256_permute4x64_pd(y, _MM_SHUFFLE(3, 3, 3, 3)), 0b0100);
+    _mm256_storeu_pd(p, a);
+    _mm256_storeu_pd(p + 4, b);
+    _mm256_storeu_pd(p + 8, c);
     return;
   }
 #endif
