@@ -273,15 +273,8 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
     bodies_.velocity_m_s[b] = v;
     bodies_.angular_velocity_rad_s[b] = w;
     bodies_.angular_momentum_kg_m2_s[b] = l;
-    if (turned) {
-      if (ns == 1 && spheres_.offset_body_m[s0] == Vec3{}) {  // place_spheres_of's first case
-        spheres_.position_m[s0] = x;
-        spheres_.velocity_m_s[s0] = v;
-        spheres_.angular_velocity_rad_s[s0] = w;
-        if (have_built && !(norm2(x - built[s0]) <= limit2)) moved = 1;
-      } else {
-        place_and_test(b);
-      }
+    if (turned) {  // a single sphere off its body's centre (the centred ones took the path above)
+      place_and_test(b);
       continue;
     }
     waiting[n_waiting++] = b;
