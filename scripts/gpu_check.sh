@@ -40,6 +40,10 @@
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
 #   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
+#   GPU_CHECK_TIMEOUT    seconds allowed to each run, ctest or sanitizer command (default 0: no
+#                        limit); one that runs over is killed and its check recorded as FAIL
+# The report is rewritten after every check, so a check machine taken back half-way still leaves
+# the checks done so far in it.
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -52,6 +56,8 @@ DO_BUILD=${GPU_CHECK_BUILD:-$def_do_build}
 OUT=${GPU_CHECK_OUT:-$root/out/gpu_check}
 BENCH=${GPU_CHECK_BENCH:-$def_bench}
 THREADS=${GPU_CHECK_THREADS:-1}
+TMO=()
+if [ "${GPU_CHECK_TIMEOUT:-0}" != 0 ]; then TMO=(timeout --kill-after=10 "$GPU_CHECK_TIMEOUT"); fi
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 report=$OUT/report.md
@@ -59,19 +65,21 @@ logs=$OUT/logs
 rm -rf "$logs" && mkdir -p "$logs"
 bin=$BUILD/biodem
 failures=0
+device_name="(not probed yet)"
 rows=()
 
 record() {  # name status detail
   rows+=("| $1 | $2 | $3 |")
   [ "$2" = FAIL ] && failures=$((failures + 1))
   printf '%-44s %s  %s\n' "$1" "$2" "$3"
+  write_report > "$report.tmp" && mv "$report.tmp" "$report"
 }
 
 run_biodem() {  # label case out extra-args... -> exit status; output in $logs/label.txt
   local label=$1 casefile=$2 out=$3
   shift 3
   rm -rf "$out"
-  "$bin" run "$casefile" --out "$out" --threads "$THREADS" "$@" > "$logs/$label.txt" 2>&1
+  "${TMO[@]}" "$bin" run "$casefile" --out "$out" --threads "$THREADS" "$@" > "$logs/$label.txt" 2>&1
 }
 
 same_files() {  # dirA dirB -> prints the files that differ or are missing; status 0 if all equal
@@ -81,6 +89,37 @@ same_files() {  # dirA dirB -> prints the files that differ or are missing; stat
     if ! cmp -s "$a/$f" "$b/$f"; then echo "$f"; bad=1; fi
   done
   return $bad
+}
+
+write_report() {  # the report so far, Markdown, on stdout
+  echo "# GPU engine check"
+  echo
+  echo "- date: $(date -u '+%Y-%m-%d %H:%M UTC')"
+  echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (with uncommitted changes)')"
+  echo "- device: $DEVICE — $device_name"
+  if command -v nvidia-smi > /dev/null 2>&1; then
+    echo "- nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null | head -n 1)"
+  fi
+  echo "- host: $(uname -n), $(nproc) CPU threads; runs with --threads $THREADS"
+  echo
+  echo "| check | result | detail |"
+  echo "|---|---|---|"
+  printf '%s\n' "${rows[@]}"
+  if [ -f "$OUT/bench/gpu_results.csv" ]; then
+    echo
+    echo "## bench/run_gpu_bench.sh"
+    echo
+    python3 - "$OUT/bench/gpu_results.csv" <<'PY'
+import csv, sys
+rows = list(csv.reader(open(sys.argv[1])))
+print("| " + " | ".join(rows[0]) + " |")
+print("|" + "---|" * len(rows[0]))
+for r in rows[1:]:
+    print("| " + " | ".join(r) + " |")
+PY
+  fi
+  echo
+  echo "Logs: \`$logs\`. $failures check(s) failed."
 }
 
 # ------------------------------------------------------------------------------------- build
@@ -112,7 +151,7 @@ else
   sel='^(GpuEngine|GpuRuns)\.|GpuEngineKilled'
   if [ "$DEVICE" = gpu ]; then
     for blocking in 1 0; do
-      if CUDA_LAUNCH_BLOCKING=$blocking BIODEM_TEST_GPU=1 ctest --test-dir "$BUILD" -R "$sel" --output-on-failure \
+      if CUDA_LAUNCH_BLOCKING=$blocking BIODEM_TEST_GPU=1 "${TMO[@]}" ctest --test-dir "$BUILD" -R "$sel" --output-on-failure \
            > "$logs/ctest_blocking$blocking.txt" 2>&1; then
         record "1. GPU tests, CUDA_LAUNCH_BLOCKING=$blocking" PASS "$(grep -o '[0-9]* tests passed.*' "$logs/ctest_blocking$blocking.txt" | head -n 1)"
       else
@@ -120,29 +159,12 @@ else
       fi
     done
   else
-    if ctest --test-dir "$BUILD" -R "$sel" --output-on-failure > "$logs/ctest_emulated.txt" 2>&1; then
+    if "${TMO[@]}" ctest --test-dir "$BUILD" -R "$sel" --output-on-failure > "$logs/ctest_emulated.txt" 2>&1; then
       record "1. GPU tests (CPU threads)" PASS "$(grep -o '[0-9]* tests passed.*' "$logs/ctest_emulated.txt" | head -n 1)"
     else
       record "1. GPU tests (CPU threads)" FAIL "see logs/ctest_emulated.txt"
     fi
   fi
-fi
-
-# -------------------------------------------------------------------- 2. compute-sanitizer
-if [ "$DEVICE" = gpu ]; then
-  san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
-  for tool in memcheck initcheck racecheck synccheck; do
-    if [ ! -x "$san" ]; then record "2. compute-sanitizer $tool" FAIL "compute-sanitizer not found"; continue; fi
-    rm -rf "$OUT/san_$tool"
-    if "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml --out "$OUT/san_$tool" \
-         --device gpu > "$logs/sanitizer_$tool.txt" 2>&1; then
-      record "2. compute-sanitizer $tool (40,200 spheres)" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_$tool.txt" | tail -n 1)"
-    else
-      record "2. compute-sanitizer $tool (40,200 spheres)" FAIL "see logs/sanitizer_$tool.txt"
-    fi
-  done
-else
-  record "2. compute-sanitizer" SKIP "needs a GPU"
 fi
 
 # ------------------------------------------------------------ 3.-5. the cohesive needle drum
@@ -208,7 +230,7 @@ else
 fi
 
 BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_kill "$needles" "$OUT/needles_kill" --device "$DEVICE"; sk=$?
-"$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?
+"${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_kill" --threads "$THREADS" --device "$DEVICE" --resume > "$logs/needles_resume.txt" 2>&1; sr=$?
 expect_same "4. kill at step 9,001 and resume" "$([ $sk -eq 137 ] && [ $sr -eq 0 ] && echo 1)" \
   "kill status $sk (137 expected), resume status $sr" "$OUT/needles_a" "$OUT/needles_kill" \
   "outputs byte-identical to the uninterrupted run"
@@ -272,6 +294,23 @@ else
   [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
 fi
 
+# -------------------------------------------------------------------- 2. compute-sanitizer (run after 6: the slowest check)
+if [ "$DEVICE" = gpu ]; then
+  san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
+  for tool in memcheck initcheck racecheck synccheck; do
+    if [ ! -x "$san" ]; then record "2. compute-sanitizer $tool" FAIL "compute-sanitizer not found"; continue; fi
+    rm -rf "$OUT/san_$tool"
+    if "${TMO[@]}" "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml --out "$OUT/san_$tool" \
+         --device gpu > "$logs/sanitizer_$tool.txt" 2>&1; then
+      record "2. compute-sanitizer $tool (40,200 spheres)" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_$tool.txt" | tail -n 1)"
+    else
+      record "2. compute-sanitizer $tool (40,200 spheres)" FAIL "see logs/sanitizer_$tool.txt"
+    fi
+  done
+else
+  record "2. compute-sanitizer" SKIP "needs a GPU"
+fi
+
 # ----------------------------------------------------------------------------- 7. bench
 if [ "$BENCH" = 1 ]; then
   if DEVICE=$DEVICE BIODEM="$bin" OUT="$OUT/bench" CPU_THREADS="${CPU_THREADS-$(nproc)}" \
@@ -285,35 +324,6 @@ else
 fi
 
 # ---------------------------------------------------------------------------- the report
-{
-  echo "# GPU engine check"
-  echo
-  echo "- date: $(date -u '+%Y-%m-%d %H:%M UTC')"
-  echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo ' (with uncommitted changes)')"
-  echo "- device: $DEVICE — $device_name"
-  if command -v nvidia-smi > /dev/null 2>&1; then
-    echo "- nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>/dev/null | head -n 1)"
-  fi
-  echo "- host: $(uname -n), $(nproc) CPU threads; runs with --threads $THREADS"
-  echo
-  echo "| check | result | detail |"
-  echo "|---|---|---|"
-  printf '%s\n' "${rows[@]}"
-  if [ -f "$OUT/bench/gpu_results.csv" ]; then
-    echo
-    echo "## bench/run_gpu_bench.sh"
-    echo
-    python3 - "$OUT/bench/gpu_results.csv" <<'PY'
-import csv, sys
-rows = list(csv.reader(open(sys.argv[1])))
-print("| " + " | ".join(rows[0]) + " |")
-print("|" + "---|" * len(rows[0]))
-for r in rows[1:]:
-    print("| " + " | ".join(r) + " |")
-PY
-  fi
-  echo
-  echo "Logs: \`$logs\`. $failures check(s) failed."
-} > "$report"
+write_report > "$report.tmp" && mv "$report.tmp" "$report"
 echo "report: $report ($failures failed)"
 [ $failures -eq 0 ]

@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# The GPU check inside a short lease of a bare GPU machine (docs/gpu.md section 6): the lean CUDA
+# build is made beforehand on the Debian machine (it needs no GPU to compile), carried over with
+# the source tree, and this script spends the lease on running, not compiling:
+#
+#   on the Debian machine:  bash scripts/gpu_lease.sh --prepare      # devcarry/: build, libraries
+#   on the GPU machine:     bash scripts/gpu_lease.sh                # checks and timings, OUT_DIR
+#
+# In order, each under its own time limit, so that a lease cut short still leaves the most
+# important figures: (0) the device and a smoke run; (1) bench/run_gpu_bench.sh on the GPU with
+# the CPU engine on all cores beside it, then the same GPU runs with -fmad=true and without CUDA
+# graphs; (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
+# CPU agreement, wider rows, compute-sanitizer last). Results: GPU_LEASE_OUT (default
+# out/gpu_lease): report.md, bench CSVs, and everything in lease.tgz.
+#
+# Environment: GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder that gets only the report, the CSVs, the
+# log and lease.tgz: a lease that brings back few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260),
+# GPU_LEASE_BENCH_S, GPU_LEASE_BENCH2_S (seconds for the first and the two other bench runs, default
+# 200 and 60), GPU_LEASE_SOURCE_DIR (where the build was configured; default: read from the carried build).
+set -uo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+
+if [ "${1:-}" = --prepare ]; then  # on the Debian machine, with CUDA and scripts/deps.sh's packages
+  set -e
+  [ -d vendor ] || bash scripts/vendor_headers.sh vendor
+  common=(-DCMAKE_BUILD_TYPE=Release -DBIODEM_WITH_OPENCV=OFF -DBIODEM_PREFER_VENDOR=ON "-DBIODEM_VENDOR_DIR=$root/vendor"
+          -DBIODEM_WITH_CUDA=ON -DCMAKE_CUDA_ARCHITECTURES=90 -DBIODEM_BUILD_BENCH=OFF
+          -DCMAKE_DISABLE_FIND_PACKAGE_Pagmo=ON -DCMAKE_DISABLE_FIND_PACKAGE_MPI=ON)
+  cmake -S . -B build-gpu "${common[@]}" > /dev/null
+  cmake --build build-gpu -j"$(nproc)"
+  cmake -S . -B build-gpu-fmad "${common[@]}" -DBIODEM_BUILD_TESTS=OFF -DBIODEM_CUDA_FMAD=ON > /dev/null
+  cmake --build build-gpu-fmad -j"$(nproc)" --target biodem
+  rm -rf devcarry && mkdir -p devcarry/lib devcarry/fmad
+  # the build without objects and archives (ctest's files, the test and program binaries)
+  cp -a build-gpu devcarry/
+  rm -rf devcarry/build-gpu/vendor_googletest devcarry/build-gpu/CMakeFiles devcarry/build-gpu/tests/out_* devcarry/build-gpu/tests/CMakeFiles
+  find devcarry/build-gpu \( -name '*.o' -o -name '*.a' \) -delete
+  cp build-gpu-fmad/biodem devcarry/fmad/biodem
+  for lib in $(ldd build-gpu/biodem | awk '/cudart|gomp|stdc\+\+/ {print $3}'); do cp -L "$lib" devcarry/lib/; done
+  echo "$root" > devcarry/source_dir
+  du -sh devcarry
+  echo "carry devcarry (ignored by git) with the call; run: bash scripts/gpu_lease.sh"
+  exit 0
+fi
+
+O=${GPU_LEASE_OUT:-$root/out/gpu_lease}
+mkdir -p "$O"
+O=$(cd "$O" && pwd)
+[ -d devcarry ] || { echo "no devcarry/: run bash scripts/gpu_lease.sh --prepare on the build machine first" >&2; exit 2; }
+# The carried build holds absolute paths of the checkout it was configured in: make that path
+# lead here.
+src=${GPU_LEASE_SOURCE_DIR:-$(cat devcarry/source_dir)}
+if [ "$src" != "$root" ]; then
+  if [ ! -e "$src" ]; then mkdir -p "$(dirname "$src")" && ln -s "$root" "$src"; fi
+  cd "$src" || exit 2
+fi
+if [ -d devcarry/build-gpu ]; then rm -rf build-gpu && mv devcarry/build-gpu build-gpu; fi
+if ! build-gpu/biodem --help > /dev/null 2>&1; then export LD_LIBRARY_PATH=$PWD/devcarry/lib; fi
+t0=$(date +%s)
+stamp() { echo "[$(( $(date +%s) - t0 )) s] $*" | tee -a "$O/lease.log"; }
+
+stamp "0. device"
+{ nvidia-smi; nvcc --version; uname -a; nproc; ldd build-gpu/biodem; } > "$O/env.txt" 2>&1
+timeout 60 build-gpu/biodem run tests/cases/gpu_needles_tiny.toml --out "$O/smoke" --device gpu > "$O/smoke.txt" 2>&1
+smoke=$?
+stamp "smoke run: status $smoke ($(tail -n 1 "$O/smoke.txt"))"
+grep -h 'us/step on\|graph\|CUDA' "$O/smoke/run.log" "$O/smoke.txt" 2>/dev/null | head -n 5 | tee -a "$O/lease.log"
+
+check_tmo=90
+if [ $smoke -ne 0 ]; then  # the engine does not run: no timings; the checks, with short limits, say where
+  stamp "1. bench skipped (the smoke run failed)"
+  check_tmo=30
+else
+stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
+DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="$(nproc)" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
+stamp "bench: status $?"
+DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
+stamp "bench -fmad=true: status $?"
+BIODEM_GPU_GRAPH=0 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_nograph" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_nograph.txt" 2>&1
+stamp "bench without CUDA graphs: status $?"
+fi
+
+stamp "2. scripts/gpu_check.sh"
+GPU_CHECK_BUILD=0 GPU_CHECK_BUILD_DIR=build-gpu GPU_CHECK_BENCH=0 GPU_CHECK_TIMEOUT=$check_tmo GPU_CHECK_OUT="$O/check" \
+  timeout "${GPU_LEASE_CHECK_S:-260}" bash scripts/gpu_check.sh > "$O/check.txt" 2>&1
+stamp "gpu_check: status $?"
+
+cp "$O/check/report.md" "$O/report.md" 2>/dev/null
+for b in bench bench_fmad bench_nograph; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+(cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
+if [ -n "${GPU_LEASE_RETURN:-}" ]; then
+  mkdir -p "$GPU_LEASE_RETURN"
+  cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
+fi
+echo; cat "$O/lease.log"; echo
+for b in bench bench_fmad bench_nograph; do echo "== $b"; cat "$O/${b}_results.csv" 2>/dev/null; done
+echo; sed -n '/^| check/,/^$/p' "$O/report.md" 2>/dev/null | cut -c1-220
