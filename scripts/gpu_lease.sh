@@ -13,7 +13,8 @@
 # CPU agreement, wider rows, compute-sanitizer last). Results: GPU_LEASE_OUT (default
 # out/gpu_lease): report.md, bench CSVs, and everything in lease.tgz.
 #
-# Environment: GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder that gets only the report, the CSVs, the
+# Environment: GPU_LEASE_STEPS (default "bench check"; also "sweep": bench/run_gpu_sweep.sh,
+# "scaling": bench/run_scaling.sh on the CPU engine at 1-16 threads), GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder that gets only the report, the CSVs, the
 # log and lease.tgz: a lease that brings back few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260),
 # GPU_LEASE_BENCH_S, GPU_LEASE_BENCH2_S (seconds for the first and the two other bench runs, default
 # 200 and 60), GPU_LEASE_SOURCE_DIR (where the build was configured; default: read from the carried build).
@@ -68,10 +69,11 @@ stamp "smoke run: status $smoke ($(tail -n 1 "$O/smoke.txt"))"
 grep -h 'us/step on\|graph\|CUDA' "$O/smoke/run.log" "$O/smoke.txt" 2>/dev/null | head -n 5 | tee -a "$O/lease.log"
 
 check_tmo=90
+want() { case " ${GPU_LEASE_STEPS:-bench check} " in *" $1 "*) return 0 ;; *) return 1 ;; esac; }
 if [ $smoke -ne 0 ]; then  # the engine does not run: no timings; the checks, with short limits, say where
   stamp "1. bench skipped (the smoke run failed)"
   check_tmo=30
-else
+elif want bench; then
 stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="$(nproc)" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
 stamp "bench: status $?"
@@ -81,10 +83,25 @@ BIODEM_GPU_GRAPH=0 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_nograph" CPU
 stamp "bench without CUDA graphs: status $?"
 fi
 
-stamp "2. scripts/gpu_check.sh"
-GPU_CHECK_BUILD=0 GPU_CHECK_BUILD_DIR=build-gpu GPU_CHECK_BENCH=0 GPU_CHECK_TIMEOUT=$check_tmo GPU_CHECK_OUT="$O/check" \
-  timeout "${GPU_LEASE_CHECK_S:-260}" bash scripts/gpu_check.sh > "$O/check.txt" 2>&1
-stamp "gpu_check: status $?"
+if want check; then
+  stamp "2. scripts/gpu_check.sh"
+  GPU_CHECK_BUILD=0 GPU_CHECK_BUILD_DIR=build-gpu GPU_CHECK_BENCH=0 GPU_CHECK_TIMEOUT=$check_tmo GPU_CHECK_OUT="$O/check" \
+    timeout "${GPU_LEASE_CHECK_S:-260}" bash scripts/gpu_check.sh > "$O/check.txt" 2>&1
+  stamp "gpu_check: status $?"
+fi
+if [ $smoke -eq 0 ] && want sweep; then
+  stamp "3. bench/run_gpu_sweep.sh: kernel durations, launch settings"
+  BIODEM=build-gpu/biodem OUT="$O/sweep" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
+  stamp "sweep: status $?"
+  cp "$O/sweep/sweep.csv" "$O/sweep_results.csv" 2>/dev/null
+fi
+if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with a 3,000-step settle
+  stamp "4. bench/run_scaling.sh (CPU engine, raw drum, settle shortened to 3,000 steps)"
+  sed 's/^steps = 30000/steps = 3000/' bench/cases/raw_bench.toml > "$O/raw_scaling.toml"
+  BIODEM=build-gpu/biodem OUT="$O/scaling" timeout "${GPU_LEASE_SCALING_S:-120}" bash bench/run_scaling.sh "$O/raw_scaling.toml" > "$O/scaling.txt" 2>&1
+  stamp "scaling: status $?"
+  cp "$O"/scaling/scaling_*.csv "$O/scaling_results.csv" 2>/dev/null
+fi
 
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
 for b in bench bench_fmad bench_nograph; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
@@ -94,5 +111,7 @@ if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
 fi
 echo; cat "$O/lease.log"; echo
-for b in bench bench_fmad bench_nograph; do echo "== $b"; cat "$O/${b}_results.csv" 2>/dev/null; done
+for b in bench bench_fmad bench_nograph; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+[ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
+[ -f "$O/scaling.txt" ] && { echo "== scaling"; cat "$O/scaling_results.csv" 2>/dev/null; tail -n 12 "$O/scaling.txt"; }
 echo; sed -n '/^| check/,/^$/p' "$O/report.md" 2>/dev/null | cut -c1-220

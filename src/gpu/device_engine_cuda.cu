@@ -246,15 +246,23 @@ class Staging {
   std::vector<char> pageable_;
 };
 
+/// Threads per block of the one-index-per-thread kernels (System::launch): 128 unless
+/// BIODEM_GPU_BLOCK says 32, 64, 128, 256 or 512 (make_engine reads it; docs/gpu.md section 4).
+inline std::uint32_t& launch_block() {
+  static std::uint32_t b = 128;
+  return b;
+}
+
 struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
   static auto exec() { return thrust::cuda::par(temporary_storage()).on(engine_stream()); }
-  /// One thread per index, 128 per block (the force kernel uses ~96 registers); no host wait.
+  /// One thread per index, launch_block() per block (the force kernel uses ~96 registers); no
+  /// host wait.
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
-    constexpr std::uint32_t kBlock = 128;
-    for_each_index<<<(n + kBlock - 1) / kBlock, kBlock, 0, engine_stream()>>>(n, f);
+    const std::uint32_t block = launch_block();
+    for_each_index<<<(n + block - 1) / block, block, 0, engine_stream()>>>(n, f);
     check_cuda("a kernel launch");
   }
   /// Doubles of device memory that sum_into needs: the result, then one per block.
@@ -280,6 +288,12 @@ struct System {
 
 namespace biodem::gpu::cuda_device {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
+  if (const char* b = std::getenv("BIODEM_GPU_BLOCK"); b && *b) {
+    const std::string v(b);
+    if (v != "32" && v != "64" && v != "128" && v != "256" && v != "512")
+      throw Error("BIODEM_GPU_BLOCK = '" + v + "': expected 32, 64, 128, 256 or 512 threads per block");
+    launch_block() = static_cast<std::uint32_t>(std::stoul(v));
+  }
   int count = 0;
   const cudaError_t err = cudaGetDeviceCount(&count);
   if (err != cudaSuccess || count == 0)

@@ -6,7 +6,6 @@
 #include <thrust/binary_search.h>
 #include <thrust/copy.h>
 #include <thrust/count.h>
-#include <thrust/find.h>
 #include <thrust/for_each.h>
 #include <thrust/functional.h>
 #include <thrust/gather.h>
@@ -83,6 +82,15 @@ class Engine final : public DeviceEngine {
       if (*end != '\0' || *sort == '-')
         throw Error("BIODEM_GPU_SORT = '" + std::string(sort) + "': expected a whole number of list builds (0: never)");
       sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
+    }
+    // BIODEM_GPU_CHECK_EVERY=N (1 to 64): at most N steps between two list checks (default 10;
+    // fewer when spheres move fast). Results do not depend on it (docs/gpu.md, section 4).
+    if (const char* every = std::getenv("BIODEM_GPU_CHECK_EVERY"); every && *every) {
+      char* end = nullptr;
+      const unsigned long v = std::strtoul(every, &end, 10);
+      if (*end != '\0' || *every == '-' || v < 1 || v > 64)
+        throw Error("BIODEM_GPU_CHECK_EVERY = '" + std::string(every) + "': expected a whole number of steps from 1 to 64");
+      check_every_ = static_cast<std::uint32_t>(v);
     }
   }
 
@@ -448,14 +456,16 @@ inline void Engine::upload() {
 }
 
 inline void Engine::check_finite() {
-  auto it = thrust::find_if(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                            thrust::counting_iterator<std::uint32_t>(ns()), IsNotFinite{sphere_arrays()});
-  if (*it != ns()) {
+  const std::uint32_t n = ns();
+  const std::uint32_t first = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                                       thrust::counting_iterator<std::uint32_t>(n),
+                                                       FirstNotFinite{sphere_arrays(), n}, n, thrust::minimum<std::uint32_t>());
+  if (first != n) {
     std::vector<std::uint32_t> body, b_host, s_host;  // named by the host's indices
     to_host(body, s_body_);
     to_host(b_host, b_host_);
     to_host(s_host, s_host_);
-    throw Error("sphere " + std::to_string(s_host[*it]) + " (of body " + std::to_string(b_host[body[*it]]) +
+    throw Error("sphere " + std::to_string(s_host[first]) + " (of body " + std::to_string(b_host[body[first]]) +
                 ") has a non-finite position at t = " + std::to_string(host_.time_s()) +
                 " s: the simulation became unstable (is [run].dt_s too large?)");
   }
@@ -554,7 +564,10 @@ inline bool Engine::sort_bodies() {
   // Key of a body: the cell of its first sphere (CellOf has just run), in the list's cell order.
   body_key_.resize(m);
   thrust::gather(exec(), b_first_.begin(), b_first_.end(), cell_key_.begin(), body_key_.begin());
-  if (thrust::is_sorted(exec(), body_key_.begin(), body_key_.end())) return false;
+  if (m < 2 || thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                        thrust::counting_iterator<std::uint32_t>(m - 1),
+                                        Descends{raw<std::uint32_t>(body_key_)}, 0u, thrust::plus<std::uint32_t>()) == 0)
+    return false;
   body_order_.resize(m);
   thrust::sequence(exec(), body_order_.begin(), body_order_.end());
   thrust::stable_sort_by_key(exec(), body_key_.begin(), body_key_.end(), body_order_.begin());

@@ -153,6 +153,23 @@ struct IsNotFinite {
   }
 };
 
+/// i where sphere i's position is not finite, else `none`: reduced with thrust::minimum, the
+/// first such sphere. (A reduction over plain integers rather than thrust::find_if, whose CUB
+/// reduction over tuple<bool, long> partials reads bytes it never wrote: compute-sanitizer
+/// initcheck reported them on an H100, docs/gpu.md section 4.)
+struct FirstNotFinite {
+  SphereArrays s;
+  std::uint32_t none;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t i) const { return IsNotFinite{s}(i) ? i : none; }
+};
+
+/// 1 where key[i + 1] < key[i], else 0: summed over i < n - 1, zero when the keys are sorted
+/// (in place of thrust::is_sorted, for the reason given at FirstNotFinite).
+struct Descends {
+  const std::uint32_t* key;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t i) const { return key[i + 1] < key[i] ? 1u : 0u; }
+};
+
 /// After the set-up force evaluation (not a time step): a pair or wall contact that was
 /// touching before keeps the history it had, a new one starts from zero (as the CPU engine's
 /// refresh()). One index per row or wall slot.

@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Where the GPU engine's step time goes, and which launch settings help (docs/gpu.md section 4):
+#   1. Nsight Compute (ncu) kernel durations in a window of the timed rotation phase of each
+#      bench drum (plain launches, BIODEM_GPU_GRAPH=0, so that ncu counts every kernel);
+#   2. bench/run_gpu_bench.sh on the GPU for several values of BIODEM_GPU_BLOCK (threads per
+#      block) and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and
+#      again last (the spread of the two is the noise).
+# Neither setting changes results: they change how the same kernels are launched and when the
+# list is rebuilt, and results do not depend on the rebuild (docs/gpu.md section 2).
+#
+#   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
+#                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES
+set -uo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+BIODEM=${BIODEM:-$root/build/biodem}
+OUT=${OUT:-/tmp/biodem-gpu-sweep}
+mkdir -p "$OUT"
+cases=${SWEEP_CASES:-glass_small glass raw}
+
+# -------------------------------------------------------------------- 1. kernel durations
+ncu_bin=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
+declare -A skip=([glass_small]=62000 [glass]=40000 [raw]=66000)
+for c in ${NCU_CASES:-glass_small raw}; do
+  [ -x "$ncu_bin" ] || { echo "ncu not found"; break; }
+  rm -rf "$OUT/ncu_$c"
+  BIODEM_GPU_GRAPH=0 timeout 90 "$ncu_bin" --clock-control none --metrics gpu__time_duration.sum \
+    --launch-skip "${skip[$c]}" --launch-count 80 --csv \
+    "$BIODEM" run "$here/cases/${c}_bench.toml" --out "$OUT/ncu_$c" --device gpu > "$OUT/ncu_$c.csv" 2> "$OUT/ncu_$c.err"
+  echo "ncu $c: status $?"
+  python3 - "$OUT/ncu_$c.csv" "$c" <<'PY'
+import csv, re, sys, collections
+path, case = sys.argv[1], sys.argv[2]
+lines = [l for l in open(path, errors="replace") if l.startswith('"')]
+rows = list(csv.DictReader(lines))
+agg = collections.OrderedDict()
+for r in rows:
+    if r.get("Metric Name") != "gpu__time_duration.sum":
+        continue
+    name = r["Kernel Name"]
+    m = re.search(r"(Forces<[^>]*>|ReduceKickDrift|KickDriftSpheres|ReduceKick|SettleUpdate|block_sums|sum_blocks|"
+                  r"DeviceReduce\w*|DeviceRadixSort\w*|DeviceScan\w*|DeviceMergeSort\w*|[A-Z][A-Za-z]+)", name)
+    key = (m.group(1) if m else name[:40]) + f" [{r['Grid Size']}x{r['Block Size']}]"
+    v = float(r["Metric Value"].replace(",", ""))
+    unit = r["Metric Unit"]
+    us = v / 1000.0 if unit in ("nsecond", "ns") else v * 1000.0 if unit in ("msecond", "ms") else v
+    a = agg.setdefault(key, [0, 0.0])
+    a[0] += 1; a[1] += us
+print(f"{case}: kernel durations (ncu, {sum(a[0] for a in agg.values())} kernels)")
+for k, (n, t) in agg.items():
+    print(f"  {k:60s} n={n:3d} mean {t/n:8.2f} us")
+PY
+done
+
+# ------------------------------------------------------------------------ 2. the sweep
+results="$OUT/sweep.csv"
+echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
+for setting in default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 \
+               BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default; do
+  envs=()
+  [ "$setting" != default ] && envs=("$setting")
+  env "${envs[@]}" DEVICE=gpu BIODEM="$BIODEM" OUT="$OUT/s" CPU_THREADS="" timeout 60 bash "$here/run_gpu_bench.sh" $cases > /dev/null 2>&1
+  tail -n +2 "$OUT/s/gpu_results.csv" | sed "s/^/$setting,/" >> "$results"
+done
+python3 - "$results" <<'PY'
+import csv, sys, collections
+rows = list(csv.DictReader(open(sys.argv[1])))
+cases = list(dict.fromkeys(r["case"] for r in rows))
+print("us/step by setting: " + ", ".join(cases))
+seen = collections.Counter()
+for r in rows:
+    pass
+table = collections.OrderedDict()
+for r in rows:
+    k = r["setting"]
+    seen[(k, r["case"])] += 1
+    key = k if seen[(k, r["case"])] == 1 else k + " (again)"
+    table.setdefault(key, {})[r["case"]] = r["us_per_step"]
+for k, v in table.items():
+    print(f"  {k:28s} " + "  ".join(f"{v.get(c, '-'):>8s}" for c in cases))
+PY
