@@ -83,6 +83,13 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_SORT = '" + std::string(sort) + "': expected a whole number of list builds (0: never)");
       sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
     }
+    // BIODEM_GPU_FORCES=rows: one thread per sphere walking its row (Forces) instead of the
+    // entry kernels (same bits).
+    if (const char* forces = std::getenv("BIODEM_GPU_FORCES"); forces && *forces) {
+      if (std::string(forces) != "rows" && std::string(forces) != "entries")
+        throw Error("BIODEM_GPU_FORCES = '" + std::string(forces) + "': expected entries or rows");
+      entries_ = std::string(forces) == "entries";
+    }
     // BIODEM_GPU_CHECK_EVERY=N (1 to 64): at most N steps between two list checks (default 10;
     // fewer when spheres move fast). Results do not depend on it (docs/gpu.md, section 4).
     if (const char* every = std::getenv("BIODEM_GPU_CHECK_EVERY"); every && *every) {
@@ -113,6 +120,11 @@ class Engine final : public DeviceEngine {
     invalidate_graphs();
     fuse_ = on;
   }
+  void set_entry_forces(bool on) override {
+    invalidate_graphs();
+    entries_ = on;
+  }
+  std::uint64_t entry_force_passes() const override { return entry_passes_; }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
     to_host(j, rows_.j);
@@ -173,7 +185,7 @@ class Engine final : public DeviceEngine {
     }
     RowArrays arrays() {
       return {raw<std::uint32_t>(j), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
-              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap};
+              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap, nullptr, nullptr};
     }
   };
 
@@ -272,6 +284,11 @@ class Engine final : public DeviceEngine {
   SettleState settle_host_;  // as last read from the device
   typename System::Graphs graphs_;
   bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
+  bool entries_ = true;             // PairEntries + SumEntries instead of Forces
+  std::uint64_t entry_passes_ = 0;  // force evaluations (launched, or recorded in a graph) by them
+  vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
+  template <bool Cohesion, bool Rolling>
+  void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
   typename System::Staging staging_;  // download()'s copies
 
@@ -547,6 +564,12 @@ inline void Engine::build_list() {
     ++widenings_;
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
+  // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
+  if (entries_ && entry_force_.size() < static_cast<std::size_t>(rows_.cap) * n) {
+    entry_force_.resize(static_cast<std::size_t>(rows_.cap) * n);
+    entry_torque_.resize(static_cast<std::size_t>(rows_.cap) * n);
+    invalidate_graphs();
+  }
   ++builds_;
 }
 
@@ -611,29 +634,40 @@ inline bool Engine::sort_bodies() {
 }
 
 inline void Engine::compute_forces(const std::uint32_t* halt) {
-  auto run = [&](auto f) {
-    f.s = sphere_arrays();
-    f.rows = rows_.arrays();
-    f.walls = raw<DeviceWall>(walls_);
-    f.wall_history = raw<contact::ContactHistory>(wall_history_);
-    f.wall_touching = raw<std::uint8_t>(wall_touching_);
-    f.n_walls = n_walls_;
-    f.pairs = raw<contact::PairParams>(pairs_);
-    f.n_materials = n_materials_;
-    f.period = domain_.length_m();
-    f.periodic = domain_.any_periodic();
-    f.n = ns();
-    f.dt = dt_;
-    f.wall_rolling_lab = host_.wall_rolling_lab();
-    f.halt = halt;
-    launch(ns(), f);
-  };
+  ContactArgs c;
+  c.s = sphere_arrays();
+  c.rows = rows_.arrays();
+  c.rows.entry_force = raw<Vec3>(entry_force_);
+  c.rows.entry_torque = raw<Vec3>(entry_torque_);
+  c.walls = raw<DeviceWall>(walls_);
+  c.wall_history = raw<contact::ContactHistory>(wall_history_);
+  c.wall_touching = raw<std::uint8_t>(wall_touching_);
+  c.n_walls = n_walls_;
+  c.pairs = raw<contact::PairParams>(pairs_);
+  c.n_materials = n_materials_;
+  c.period = domain_.length_m();
+  c.periodic = domain_.any_periodic();
+  c.n = ns();
+  c.dt = dt_;
+  c.wall_rolling_lab = host_.wall_rolling_lab();
+  c.halt = halt;
   if (cohesion_) {
-    if (rolling_) run(Forces<true, true>{});
-    else run(Forces<true, false>{});
+    if (rolling_) launch_forces<true, true>(c);
+    else launch_forces<true, false>(c);
   } else {
-    if (rolling_) run(Forces<false, true>{});
-    else run(Forces<false, false>{});
+    if (rolling_) launch_forces<false, true>(c);
+    else launch_forces<false, false>(c);
+  }
+}
+
+template <bool Cohesion, bool Rolling>
+void Engine::launch_forces(const ContactArgs& c) {
+  if (entries_ && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns()) {
+    launch(rows_.cap * ns(), PairEntries<Cohesion, Rolling>{c});
+    launch(ns(), SumEntries<Cohesion, Rolling>{c});
+    ++entry_passes_;
+  } else {
+    launch(ns(), Forces<Cohesion, Rolling>{c});
   }
 }
 

@@ -54,6 +54,8 @@ struct RowArrays {
   contact::ContactHistory* history;  // from the side of the pair's lower stable id
   std::uint32_t* length;
   std::uint32_t cap;
+  Vec3* entry_force;   // PairEntries -> SumEntries: force on the pair's lower-id sphere
+  Vec3* entry_torque;  // and torque on the row's sphere, per touching entry
 };
 
 BIODEM_HD inline std::int32_t pack_image(int sx, int sy, int sz) {
@@ -381,12 +383,8 @@ struct InHostOrder {
   BIODEM_HD double operator()(std::uint32_t h) const { return f(slot[h]); }
 };
 
-/// Contact forces on sphere a: its pair contacts in the order of the row (stable ids), then its
-/// walls in wall order. Each pair is evaluated from the side of its lower stable id, by both of
-/// its spheres' threads with identical arithmetic; each thread keeps its own copy of the pair's
-/// history, and the copies stay bit-identical.
-template <bool Cohesion, bool Rolling>
-struct Forces {
+/// What the force kernels share: the arrays and parameters of the contacts of one step.
+struct ContactArgs {
   SphereArrays s;
   RowArrays rows;
   const DeviceWall* walls;
@@ -401,50 +399,65 @@ struct Forces {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
-  BIODEM_HD void operator()(std::uint32_t a) const {
-    if (halted(halt)) return;
-    Vec3 f, t;
-    std::uint32_t count = 0;
-    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
-    for (std::uint32_t q = 0; q < len; ++q) {
-      const std::uint32_t k = q * n + a;
-      const std::uint32_t b = rows.j[k];
-      const bool a_low = sid_a < s.sid[b];
-      const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
-      Vec3 d = s.position[i] - s.position[j];
-      if (periodic) {
-        const std::int32_t c = rows.image[k];
-        const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
-        const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
-        const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
-        d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
-                  static_cast<double>(sz) * period.z};
-      }
-      const double ri = s.radius[i], rj = s.radius[j];
-      const double dist2 = norm2(d), rsum = ri + rj;
-      if (dist2 >= rsum * rsum) {
-        if (rows.touching[k]) {
-          rows.touching[k] = 0;
-          rows.history[k] = contact::ContactHistory{};
-        }
-        continue;
-      }
-      const double dist = sqrt(dist2);
-      const contact::ContactGeometry geo = contact::sphere_sphere_geometry(
-          d, dist, ri, rj, s.body_mass[i], s.body_mass[j], s.velocity[i], s.velocity[j], s.omega[i], s.omega[j]);
-      const contact::PairParams& p = pairs[s.material[i] * n_materials + s.material[j]];
-      const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt);
-      rows.touching[k] = 1;
-      if (a_low) {
-        f += out.force_i;
-        t += out.torque_i;
-        ++count;  // each pair counted once, by its lower-id sphere
-      } else {
-        f -= out.force_i;
-        t += out.torque_j;
-      }
+
+  /// Entry k = q * n + a of sphere a's row (sid_a: a's stable id): the pair evaluated from the
+  /// side of its lower stable id, with that side's copy of the history in the entry. True when
+  /// the spheres touch, with the force on the lower-id sphere (`force_low`), the torque on a
+  /// (`torque_a`) and whether a is the lower-id sphere; false (history reset) otherwise.
+  template <bool Cohesion, bool Rolling>
+  BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
+                            bool& a_low) const {
+    const std::uint32_t b = rows.j[k];
+    a_low = sid_a < s.sid[b];
+    const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
+    Vec3 d = s.position[i] - s.position[j];
+    if (periodic) {
+      const std::int32_t c = rows.image[k];
+      const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
+      const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
+      const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
+      d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
+                static_cast<double>(sz) * period.z};
     }
+    const double ri = s.radius[i], rj = s.radius[j];
+    const double dist2 = norm2(d), rsum = ri + rj;
+    if (dist2 >= rsum * rsum) {
+      if (rows.touching[k]) {
+        rows.touching[k] = 0;
+        rows.history[k] = contact::ContactHistory{};
+      }
+      return false;
+    }
+    const double dist = sqrt(dist2);
+    const contact::ContactGeometry geo = contact::sphere_sphere_geometry(
+        d, dist, ri, rj, s.body_mass[i], s.body_mass[j], s.velocity[i], s.velocity[j], s.omega[i], s.omega[j]);
+    const contact::PairParams& p = pairs[s.material[i] * n_materials + s.material[j]];
+    const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
+    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt);
+    rows.touching[k] = 1;
+    force_low = out.force_i;
+    torque_a = a_low ? out.torque_i : out.torque_j;
+    return true;
+  }
+
+  /// Adds a pair entry's contribution to sphere a's sums (each pair counted once, by its
+  /// lower-id sphere).
+  BIODEM_HD static void add_pair(const Vec3& force_low, const Vec3& torque_a, bool a_low, Vec3& f, Vec3& t,
+                                 std::uint32_t& count) {
+    if (a_low) {
+      f += force_low;
+      t += torque_a;
+      ++count;
+    } else {
+      f -= force_low;
+      t += torque_a;
+    }
+  }
+
+  /// Sphere a's wall contacts in wall order, added to its sums; then its force, torque and
+  /// contact count stored.
+  template <bool Cohesion, bool Rolling>
+  BIODEM_HD void walls_and_store(std::uint32_t a, Vec3 f, Vec3 t, std::uint32_t count) const {
     const Vec3 xa = s.position[a];
     const double ra = s.radius[a];
     for (std::uint32_t w = 0; w < n_walls; ++w) {
@@ -474,6 +487,65 @@ struct Forces {
     s.force[a] = f;
     s.torque[a] = t;
     s.contacts[a] = count;
+  }
+};
+
+/// Contact forces on sphere a, one thread per sphere: its pair contacts in the order of the row
+/// (stable ids), then its walls in wall order. Each pair is evaluated from the side of its lower
+/// stable id, by both of its spheres' threads with identical arithmetic; each thread keeps its
+/// own copy of the pair's history, and the copies stay bit-identical. (BIODEM_GPU_FORCES=rows;
+/// the default splits this into PairEntries and SumEntries, with the same bits.)
+template <bool Cohesion, bool Rolling>
+struct Forces : ContactArgs {
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    if (halted(halt)) return;
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
+    for (std::uint32_t q = 0; q < len; ++q) {
+      Vec3 fl, ta;
+      bool a_low = false;
+      if (pair_entry<Cohesion, Rolling>(a, sid_a, q * n + a, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
+    }
+    walls_and_store<Cohesion, Rolling>(a, f, t, count);
+  }
+};
+
+/// The pair entries of every row at once, one thread per entry k = q * n + a (index k, over
+/// rows.cap * n; entries past a row's length do nothing): each touching entry's force on the
+/// lower-id sphere and torque on a go to rows.entry_force and rows.entry_torque, for SumEntries.
+/// The arithmetic of Forces' loop body, so the same bits; a row's entries no longer wait for
+/// one another (on a GPU the step's longest chain is one pair, not one row).
+template <bool Cohesion, bool Rolling>
+struct PairEntries : ContactArgs {
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(halt)) return;
+    const std::uint32_t a = k % n, q = k / n;
+    if (q >= rows.length[a]) return;
+    Vec3 fl, ta;
+    bool a_low = false;
+    if (pair_entry<Cohesion, Rolling>(a, s.sid[a], k, fl, ta, a_low)) {
+      rows.entry_force[k] = fl;
+      rows.entry_torque[k] = ta;
+    }
+  }
+};
+
+/// After PairEntries, one thread per sphere: the touching entries of its row summed in row
+/// order, then its walls, exactly as Forces does (same operations in the same order).
+template <bool Cohesion, bool Rolling>
+struct SumEntries : ContactArgs {
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    if (halted(halt)) return;
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
+    for (std::uint32_t q = 0; q < len; ++q) {
+      const std::uint32_t k = q * n + a;
+      if (!rows.touching[k]) continue;
+      add_pair(rows.entry_force[k], rows.entry_torque[k], sid_a < s.sid[rows.j[k]], f, t, count);
+    }
+    walls_and_store<Cohesion, Rolling>(a, f, t, count);
   }
 };
 
