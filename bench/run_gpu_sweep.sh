@@ -10,6 +10,7 @@
 #
 #   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
 #                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES
+#                                        (empty: no ncu), SWEEP_SETTINGS (empty: no sweep)
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
@@ -21,7 +22,7 @@ cases=${SWEEP_CASES:-glass_small glass raw}
 # -------------------------------------------------------------------- 1. kernel durations
 ncu_bin=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
 declare -A skip=([glass_small]=62000 [glass]=40000 [raw]=66000)
-for c in ${NCU_CASES:-glass_small raw}; do
+for c in ${NCU_CASES-glass_small raw}; do
   [ -x "$ncu_bin" ] || { echo "ncu not found"; break; }
   rm -rf "$OUT/ncu_$c"
   BIODEM_GPU_GRAPH=0 timeout 90 "$ncu_bin" --clock-control none --metrics gpu__time_duration.sum \
@@ -55,8 +56,10 @@ done
 # ------------------------------------------------------------------------ 2. the sweep
 results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
-for setting in default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 \
-               BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default; do
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 \
+  BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default}
+[ -n "$settings" ] || exit 0
+for setting in $settings; do
   envs=()
   [ "$setting" != default ] && envs=("$setting")
   env "${envs[@]}" DEVICE=gpu BIODEM="$BIODEM" OUT="$OUT/s" CPU_THREADS="" timeout 60 bash "$here/run_gpu_bench.sh" $cases > /dev/null 2>&1

@@ -8,8 +8,8 @@
 #
 # In order, each under its own time limit, so that a lease cut short still leaves the most
 # important figures: (0) the device and a smoke run; (1) bench/run_gpu_bench.sh on the GPU with
-# the CPU engine on all cores beside it, then the same GPU runs with -fmad=true and without CUDA
-# graphs; (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
+# the CPU engine on all cores beside it, then the same GPU runs with -fmad=true and with the
+# row-walk force kernel (BIODEM_GPU_FORCES=rows); (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
 # CPU agreement, wider rows, compute-sanitizer last). Results: GPU_LEASE_OUT (default
 # out/gpu_lease): report.md, bench CSVs, and everything in lease.tgz.
 #
@@ -75,12 +75,12 @@ if [ $smoke -ne 0 ]; then  # the engine does not run: no timings; the checks, wi
   check_tmo=30
 elif want bench; then
 stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
-DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="$(nproc)" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
+DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="${GPU_LEASE_CPU_THREADS-$(nproc)}" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
 stamp "bench: status $?"
 DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
 stamp "bench -fmad=true: status $?"
-BIODEM_GPU_GRAPH=0 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_nograph" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_nograph.txt" 2>&1
-stamp "bench without CUDA graphs: status $?"
+BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_rows.txt" 2>&1
+stamp "bench with the row-walk force kernel (BIODEM_GPU_FORCES=rows): status $?"
 fi
 
 if want check; then
@@ -91,7 +91,7 @@ if want check; then
 fi
 if [ $smoke -eq 0 ] && want sweep; then
   stamp "3. bench/run_gpu_sweep.sh: kernel durations, launch settings"
-  BIODEM=build-gpu/biodem OUT="$O/sweep" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
+  BIODEM=build-gpu/biodem OUT="$O/sweep" SWEEP_SETTINGS="${GPU_LEASE_SWEEP_SETTINGS-default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default}" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
   stamp "sweep: status $?"
   cp "$O/sweep/sweep.csv" "$O/sweep_results.csv" 2>/dev/null
 fi
@@ -104,14 +104,14 @@ if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with
 fi
 
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
-for b in bench bench_fmad bench_nograph; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+for b in bench bench_fmad bench_rows; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
 (cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
 fi
 echo; cat "$O/lease.log"; echo
-for b in bench bench_fmad bench_nograph; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+for b in bench bench_fmad bench_rows; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
 [ -f "$O/scaling.txt" ] && { echo "== scaling"; cat "$O/scaling_results.csv" 2>/dev/null; tail -n 12 "$O/scaling.txt"; }
 echo; sed -n '/^| check/,/^$/p' "$O/report.md" 2>/dev/null | cut -c1-220
