@@ -185,7 +185,7 @@ class Engine final : public DeviceEngine {
     }
     RowArrays arrays() {
       return {raw<std::uint32_t>(j), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
-              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap, nullptr, nullptr};
+              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap, nullptr, nullptr, nullptr, nullptr};
     }
   };
 
@@ -285,8 +285,14 @@ class Engine final : public DeviceEngine {
   typename System::Graphs graphs_;
   bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
   bool entries_ = true;             // PairEntries + SumEntries instead of Forces
-  std::uint64_t entry_passes_ = 0;  // force evaluations (launched, or recorded in a graph) by them
+  std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
+  vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
+  /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
+  bool entries_ready() const {
+    return entries_ && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
+           wall_force_.size() >= static_cast<std::size_t>(n_walls_) * ns();
+  }
   template <bool Cohesion, bool Rolling>
   void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
@@ -565,9 +571,11 @@ inline void Engine::build_list() {
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if (entries_ && entry_force_.size() < static_cast<std::size_t>(rows_.cap) * n) {
-    entry_force_.resize(static_cast<std::size_t>(rows_.cap) * n);
-    entry_torque_.resize(static_cast<std::size_t>(rows_.cap) * n);
+  if (entries_ && !entries_ready()) {
+    entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
+    entry_torque_.resize(entry_force_.size());
+    wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
+    wall_torque_.resize(wall_force_.size());
     invalidate_graphs();
   }
   ++builds_;
@@ -639,6 +647,8 @@ inline void Engine::compute_forces(const std::uint32_t* halt) {
   c.rows = rows_.arrays();
   c.rows.entry_force = raw<Vec3>(entry_force_);
   c.rows.entry_torque = raw<Vec3>(entry_torque_);
+  c.rows.wall_force = raw<Vec3>(wall_force_);
+  c.rows.wall_torque = raw<Vec3>(wall_torque_);
   c.walls = raw<DeviceWall>(walls_);
   c.wall_history = raw<contact::ContactHistory>(wall_history_);
   c.wall_touching = raw<std::uint8_t>(wall_touching_);
@@ -662,10 +672,9 @@ inline void Engine::compute_forces(const std::uint32_t* halt) {
 
 template <bool Cohesion, bool Rolling>
 void Engine::launch_forces(const ContactArgs& c) {
-  if (entries_ && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns()) {
-    launch(rows_.cap * ns(), PairEntries<Cohesion, Rolling>{c});
+  if (entries_ready()) {
+    launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
     launch(ns(), SumEntries<Cohesion, Rolling>{c});
-    ++entry_passes_;
   } else {
     launch(ns(), Forces<Cohesion, Rolling>{c});
   }
@@ -707,6 +716,7 @@ inline void Engine::run_units(std::uint32_t units) {
     }
   };
   if (fused) fused_units_ += units;
+  if (entries_ready()) entry_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
@@ -779,6 +789,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
     // The next check is steps_until_check_ steps after this one.
     const std::uint64_t units = std::min<std::uint64_t>(steps_until_check_, max_steps - cur);
     if (units == 0) {
+      if (entries_ready()) ++entry_passes_;
       second_half();
       break;
     }

@@ -56,6 +56,8 @@ struct RowArrays {
   std::uint32_t cap;
   Vec3* entry_force;   // PairEntries -> SumEntries: force on the pair's lower-id sphere
   Vec3* entry_torque;  // and torque on the row's sphere, per touching entry
+  Vec3* wall_force;    // and per touching wall contact [wall * n + sphere]
+  Vec3* wall_torque;
 };
 
 BIODEM_HD inline std::int32_t pack_image(int sx, int sy, int sz) {
@@ -454,36 +456,38 @@ struct ContactArgs {
     }
   }
 
-  /// Sphere a's wall contacts in wall order, added to its sums; then its force, torque and
-  /// contact count stored.
+  /// Sphere a's contact with wall w (slot w * n + a of the wall history): true when touching,
+  /// with the force and torque on a; false (history reset) otherwise.
   template <bool Cohesion, bool Rolling>
-  BIODEM_HD void walls_and_store(std::uint32_t a, Vec3 f, Vec3 t, std::uint32_t count) const {
+  BIODEM_HD bool wall_entry(std::uint32_t a, std::uint32_t w, Vec3& force, Vec3& torque) const {
     const Vec3 xa = s.position[a];
     const double ra = s.radius[a];
-    for (std::uint32_t w = 0; w < n_walls; ++w) {
-      const DeviceWall& ws = walls[w];
-      const walls::WallHit hit = walls::wall_hit(ws.geometry, xa, ra);
-      const std::uint32_t slot = w * n + a;
-      if (!hit.touching) {
-        if (wall_touching[slot]) {
-          wall_touching[slot] = 0;
-          wall_history[slot] = contact::ContactHistory{};
-        }
-        continue;
+    const DeviceWall& ws = walls[w];
+    const walls::WallHit hit = walls::wall_hit(ws.geometry, xa, ra);
+    const std::uint32_t slot = w * n + a;
+    if (!hit.touching) {
+      if (wall_touching[slot]) {
+        wall_touching[slot] = 0;
+        wall_history[slot] = contact::ContactHistory{};
       }
-      const Vec3 surface_point = xa - hit.gap_m * hit.normal;
-      const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
-      const Vec3 w_wall = wall_rolling_lab ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
-      const contact::ContactGeometry geo = contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, s.body_mass[a],
-                                                                         s.velocity[a], s.omega[a], v_wall, w_wall);
-      const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];
-      const double area = Cohesion ? contact::sjkr_area_sphere_wall(ra, hit.gap_m) : 0.0;
-      const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt);
-      wall_touching[slot] = 1;
-      f += out.force_i;
-      t += out.torque_i;
-      ++count;
+      return false;
     }
+    const Vec3 surface_point = xa - hit.gap_m * hit.normal;
+    const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
+    const Vec3 w_wall = wall_rolling_lab ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
+    const contact::ContactGeometry geo = contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, s.body_mass[a],
+                                                                       s.velocity[a], s.omega[a], v_wall, w_wall);
+    const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];
+    const double area = Cohesion ? contact::sjkr_area_sphere_wall(ra, hit.gap_m) : 0.0;
+    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt);
+    wall_touching[slot] = 1;
+    force = out.force_i;
+    torque = out.torque_i;
+    return true;
+  }
+
+  /// Sphere a's force, torque and contact count stored.
+  BIODEM_HD void store(std::uint32_t a, const Vec3& f, const Vec3& t, std::uint32_t count) const {
     s.force[a] = f;
     s.torque[a] = t;
     s.contacts[a] = count;
@@ -507,20 +511,39 @@ struct Forces : ContactArgs {
       bool a_low = false;
       if (pair_entry<Cohesion, Rolling>(a, sid_a, q * n + a, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
     }
-    walls_and_store<Cohesion, Rolling>(a, f, t, count);
+    for (std::uint32_t w = 0; w < n_walls; ++w) {
+      Vec3 fw, tw;
+      if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
+        f += fw;
+        t += tw;
+        ++count;
+      }
+    }
+    store(a, f, t, count);
   }
 };
 
-/// The pair entries of every row at once, one thread per entry k = q * n + a (index k, over
-/// rows.cap * n; entries past a row's length do nothing): each touching entry's force on the
-/// lower-id sphere and torque on a go to rows.entry_force and rows.entry_torque, for SumEntries.
-/// The arithmetic of Forces' loop body, so the same bits; a row's entries no longer wait for
-/// one another (on a GPU the step's longest chain is one pair, not one row).
+/// Every contact of the step at once, one thread per entry k = q * n + a over (rows.cap +
+/// n_walls) * n indices: q < rows.cap is entry q of sphere a's row (entries past the row's length
+/// do nothing), q = rows.cap + w is a's contact with wall w. A touching pair entry's force on the
+/// lower-id sphere and torque on a go to rows.entry_force and rows.entry_torque, a touching wall
+/// contact's force and torque to rows.wall_force and rows.wall_torque [w * n + a], for
+/// SumEntries. The arithmetic of Forces' loop bodies, so the same bits; a sphere's contacts no
+/// longer wait for one another (on a GPU the step's longest chain is one contact, not one row).
 template <bool Cohesion, bool Rolling>
 struct PairEntries : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
     const std::uint32_t a = k % n, q = k / n;
+    if (q >= rows.cap) {
+      const std::uint32_t w = q - rows.cap;
+      Vec3 fw, tw;
+      if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
+        rows.wall_force[w * n + a] = fw;
+        rows.wall_torque[w * n + a] = tw;
+      }
+      return;
+    }
     if (q >= rows.length[a]) return;
     Vec3 fl, ta;
     bool a_low = false;
@@ -531,8 +554,6 @@ struct PairEntries : ContactArgs {
   }
 };
 
-/// After PairEntries, one thread per sphere: the touching entries of its row summed in row
-/// order, then its walls, exactly as Forces does (same operations in the same order).
 template <bool Cohesion, bool Rolling>
 struct SumEntries : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t a) const {
@@ -545,7 +566,14 @@ struct SumEntries : ContactArgs {
       if (!rows.touching[k]) continue;
       add_pair(rows.entry_force[k], rows.entry_torque[k], sid_a < s.sid[rows.j[k]], f, t, count);
     }
-    walls_and_store<Cohesion, Rolling>(a, f, t, count);
+    for (std::uint32_t w = 0; w < n_walls; ++w) {
+      const std::uint32_t slot = w * n + a;
+      if (!wall_touching[slot]) continue;
+      f += rows.wall_force[slot];
+      t += rows.wall_torque[slot];
+      ++count;
+    }
+    store(a, f, t, count);
   }
 };
 

@@ -725,7 +725,7 @@ TEST(GpuEngine, EntryForcesGiveTheBitsOfTheRowWalk) {
               static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
               static_cast<unsigned long long>(ea->entry_force_passes()),
               static_cast<unsigned long long>(eb->entry_force_passes()));
-  EXPECT_GE(ea->entry_force_passes(), steps);
+  EXPECT_EQ(ea->entry_force_passes(), steps);  // counted per step, graphs or not (an H100 run caught a count per graph capture)
   EXPECT_EQ(eb->entry_force_passes(), 0u);
   EXPECT_GT(ea->list_builds(), 5u);
 }
