@@ -3,13 +3,13 @@
 # build is made beforehand on the Debian machine (it needs no GPU to compile), carried over with
 # the source tree, and this script spends the lease on running, not compiling:
 #
-#   on the Debian machine:  bash scripts/gpu_lease.sh --prepare      # devcarry/: build, libraries
+#   on the Debian machine:  bash scripts/gpu_lease.sh --prepare [--fmad]   # devcarry/: build, libraries
 #   on the GPU machine:     bash scripts/gpu_lease.sh                # checks and timings, OUT_DIR
 #
 # In order, each under its own time limit, so that a lease cut short still leaves the most
 # important figures: (0) the device and a smoke run; (1) bench/run_gpu_bench.sh on the GPU with
-# the CPU engine on all cores beside it, then the same GPU runs with -fmad=true and with the
-# row-walk force kernel (BIODEM_GPU_FORCES=rows); (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
+# the CPU engine on all cores beside it, then the same GPU runs with each force kernel forced
+# (BIODEM_GPU_FORCES=entries, =rows) and, when prepared with --fmad, a build with -fmad=true; (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
 # CPU agreement, wider rows, compute-sanitizer last). Results: GPU_LEASE_OUT (default
 # out/gpu_lease): report.md, bench CSVs, and everything in lease.tgz.
 #
@@ -30,14 +30,16 @@ if [ "${1:-}" = --prepare ]; then  # on the Debian machine, with CUDA and script
           -DCMAKE_DISABLE_FIND_PACKAGE_Pagmo=ON -DCMAKE_DISABLE_FIND_PACKAGE_MPI=ON)
   cmake -S . -B build-gpu "${common[@]}" > /dev/null
   cmake --build build-gpu -j"$(nproc)"
-  cmake -S . -B build-gpu-fmad "${common[@]}" -DBIODEM_BUILD_TESTS=OFF -DBIODEM_CUDA_FMAD=ON > /dev/null
-  cmake --build build-gpu-fmad -j"$(nproc)" --target biodem
-  rm -rf devcarry && mkdir -p devcarry/lib devcarry/fmad
+  rm -rf devcarry && mkdir -p devcarry/lib
+  if [ "${2:-}" = --fmad ]; then  # a second biodem with -fmad=true, for the comparison of docs/gpu.md
+    cmake -S . -B build-gpu-fmad "${common[@]}" -DBIODEM_BUILD_TESTS=OFF -DBIODEM_CUDA_FMAD=ON > /dev/null
+    cmake --build build-gpu-fmad -j"$(nproc)" --target biodem
+    mkdir -p devcarry/fmad && cp build-gpu-fmad/biodem devcarry/fmad/biodem
+  fi
   # the build without objects and archives (ctest's files, the test and program binaries)
   cp -a build-gpu devcarry/
   rm -rf devcarry/build-gpu/vendor_googletest devcarry/build-gpu/CMakeFiles devcarry/build-gpu/tests/out_* devcarry/build-gpu/tests/CMakeFiles
   find devcarry/build-gpu \( -name '*.o' -o -name '*.a' \) -delete
-  cp build-gpu-fmad/biodem devcarry/fmad/biodem
   for lib in $(ldd build-gpu/biodem | awk '/cudart|gomp|stdc\+\+/ {print $3}'); do cp -L "$lib" devcarry/lib/; done
   echo "$root" > devcarry/source_dir
   du -sh devcarry
@@ -77,8 +79,12 @@ elif want bench; then
 stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="${GPU_LEASE_CPU_THREADS-$(nproc)}" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
 stamp "bench: status $?"
-DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
-stamp "bench -fmad=true: status $?"
+BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_entries" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_entries.txt" 2>&1
+stamp "bench with the entry force kernels (BIODEM_GPU_FORCES=entries): status $?"
+if [ -x devcarry/fmad/biodem ]; then  # made by --prepare --fmad
+  DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
+  stamp "bench -fmad=true: status $?"
+fi
 BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_rows.txt" 2>&1
 stamp "bench with the row-walk force kernel (BIODEM_GPU_FORCES=rows): status $?"
 fi
@@ -104,14 +110,14 @@ if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with
 fi
 
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
-for b in bench bench_fmad bench_rows; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+for b in bench bench_entries bench_rows bench_fmad; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
 (cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
 fi
 echo; cat "$O/lease.log"; echo
-for b in bench bench_fmad bench_rows; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+for b in bench bench_entries bench_rows bench_fmad; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
 [ -f "$O/scaling.txt" ] && { echo "== scaling"; cat "$O/scaling_results.csv" 2>/dev/null; tail -n 12 "$O/scaling.txt"; }
 echo; sed -n '/^| check/,/^$/p' "$O/report.md" 2>/dev/null | cut -c1-220

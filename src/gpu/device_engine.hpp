@@ -89,11 +89,12 @@ class DeviceEngine {
   /// tests and comparisons. fused_steps() counts the steps whose halves were joined so far.
   virtual void set_fused_kick(bool on) = 0;
   virtual std::uint64_t fused_steps() const = 0;
-  /// The pair forces as one thread per row entry (PairEntries) then one per sphere summing its
-  /// row in order (SumEntries), or one thread per sphere walking its row (Forces): the same
-  /// operations in the same order, so the same bits. Entries by default; BIODEM_GPU_FORCES=rows
-  /// or this switch for tests and comparisons. entry_force_passes() counts the force
-  /// evaluations made by the entry kernels so far.
+  /// The contact forces as one thread per row entry and wall slot (PairEntries) then one per
+  /// sphere summing its row and walls in order (SumEntries), or one thread per sphere walking its
+  /// row and walls (Forces): the same operations in the same order, so the same bits. By default
+  /// chosen by the sphere count (entries below 15,000 spheres, docs/gpu.md section 4);
+  /// BIODEM_GPU_FORCES=entries|rows|auto or this switch for tests and comparisons.
+  /// entry_force_passes() counts the steps whose forces the entry kernels evaluated.
   virtual void set_entry_forces(bool on) = 0;
   virtual std::uint64_t entry_force_passes() const = 0;
   /// The bodies are stored on the device sorted by the neighbour-list cell of their first sphere

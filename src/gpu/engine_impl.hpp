@@ -60,6 +60,12 @@ inline constexpr std::size_t kMaxDeviceWalls = 16;
 /// emulated on the quick drums: one build interval puts 0.3-3 % of adjacent slots out of cell
 /// order; every 4th build keeps that at 0.8-6 % for a quarter of the sorting.
 inline constexpr std::uint32_t kSortEvery = 4;
+/// Below this many spheres the pair and wall contacts run as one thread per entry (PairEntries,
+/// SumEntries), from it one thread per sphere (Forces); BIODEM_GPU_FORCES overrides. Measured on
+/// an H100 (2026-11-26, docs/gpu.md section 4) with the walls still summed serially in
+/// SumEntries: entries 24.4 vs rows 33.2 us/step at 4,948 spheres, 50.7 vs 47.8 at 19,791,
+/// 44.5 vs 37.0 at 39,366. The walls have since moved into the entry pass (not yet measured).
+inline constexpr std::uint32_t kEntryForcesBelow = 15000;
 
 class Engine final : public DeviceEngine {
  public:
@@ -83,12 +89,14 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_SORT = '" + std::string(sort) + "': expected a whole number of list builds (0: never)");
       sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
     }
-    // BIODEM_GPU_FORCES=rows: one thread per sphere walking its row (Forces) instead of the
-    // entry kernels (same bits).
+    // BIODEM_GPU_FORCES=entries|rows|auto: the entry kernels (PairEntries, SumEntries), one
+    // thread per sphere walking its row (Forces), or by the sphere count (kEntryForcesBelow).
+    // The same bits whichever runs.
     if (const char* forces = std::getenv("BIODEM_GPU_FORCES"); forces && *forces) {
-      if (std::string(forces) != "rows" && std::string(forces) != "entries")
-        throw Error("BIODEM_GPU_FORCES = '" + std::string(forces) + "': expected entries or rows");
-      entries_ = std::string(forces) == "entries";
+      const std::string v(forces);
+      if (v != "rows" && v != "entries" && v != "auto")
+        throw Error("BIODEM_GPU_FORCES = '" + v + "': expected entries, rows or auto");
+      forces_mode_ = v == "entries" ? ForcesMode::entries : v == "rows" ? ForcesMode::rows : ForcesMode::automatic;
     }
     // BIODEM_GPU_CHECK_EVERY=N (1 to 64): at most N steps between two list checks (default 10;
     // fewer when spheres move fast). Results do not depend on it (docs/gpu.md, section 4).
@@ -122,7 +130,7 @@ class Engine final : public DeviceEngine {
   }
   void set_entry_forces(bool on) override {
     invalidate_graphs();
-    entries_ = on;
+    forces_mode_ = on ? ForcesMode::entries : ForcesMode::rows;
   }
   std::uint64_t entry_force_passes() const override { return entry_passes_; }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
@@ -284,13 +292,18 @@ class Engine final : public DeviceEngine {
   SettleState settle_host_;  // as last read from the device
   typename System::Graphs graphs_;
   bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
-  bool entries_ = true;             // PairEntries + SumEntries instead of Forces
+  enum class ForcesMode { automatic, entries, rows };
+  ForcesMode forces_mode_ = ForcesMode::automatic;
+  /// PairEntries + SumEntries instead of Forces.
+  bool entries_() const {
+    return forces_mode_ == ForcesMode::entries || (forces_mode_ == ForcesMode::automatic && ns() < kEntryForcesBelow);
+  }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
   bool entries_ready() const {
-    return entries_ && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
+    return entries_() && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
            wall_force_.size() >= static_cast<std::size_t>(n_walls_) * ns();
   }
   template <bool Cohesion, bool Rolling>
@@ -571,7 +584,7 @@ inline void Engine::build_list() {
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if (entries_ && !entries_ready()) {
+  if (entries_() && !entries_ready()) {
     entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
     entry_torque_.resize(entry_force_.size());
     wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
