@@ -39,7 +39,7 @@ for r in rows:
     if r.get("Metric Name") != "gpu__time_duration.sum":
         continue
     name = r["Kernel Name"]
-    m = re.search(r"(Forces<[^>]*>|ReduceKickDrift|KickDriftSpheres|ReduceKick|SettleUpdate|block_sums|sum_blocks|"
+    m = re.search(r"(SphereContacts<[^>]*>|Forces<[^>]*>|ReduceKickDrift|KickDriftSpheres|ReduceKick|SettleUpdate|block_sums|sum_blocks|"
                   r"DeviceReduce\w*|DeviceRadixSort\w*|DeviceScan\w*|DeviceMergeSort\w*|[A-Z][A-Za-z]+)", name)
     key = (m.group(1) if m else name[:40]) + f" [{r['Grid Size']}x{r['Block Size']}]"
     v = float(r["Metric Value"].replace(",", ""))

@@ -486,41 +486,6 @@ struct ContactArgs {
     return true;
   }
 
-  /// Sphere a's force, torque and contact count stored.
-  BIODEM_HD void store(std::uint32_t a, const Vec3& f, const Vec3& t, std::uint32_t count) const {
-    s.force[a] = f;
-    s.torque[a] = t;
-    s.contacts[a] = count;
-  }
-};
-
-/// Contact forces on sphere a, one thread per sphere: its pair contacts in the order of the row
-/// (stable ids), then its walls in wall order. Each pair is evaluated from the side of its lower
-/// stable id, by both of its spheres' threads with identical arithmetic; each thread keeps its
-/// own copy of the pair's history, and the copies stay bit-identical. (BIODEM_GPU_FORCES=rows;
-/// the default splits this into PairEntries and SumEntries, with the same bits.)
-template <bool Cohesion, bool Rolling>
-struct Forces : ContactArgs {
-  BIODEM_HD void operator()(std::uint32_t a) const {
-    if (halted(halt)) return;
-    Vec3 f, t;
-    std::uint32_t count = 0;
-    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
-    for (std::uint32_t q = 0; q < len; ++q) {
-      Vec3 fl, ta;
-      bool a_low = false;
-      if (pair_entry<Cohesion, Rolling>(a, sid_a, q * n + a, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
-    }
-    for (std::uint32_t w = 0; w < n_walls; ++w) {
-      Vec3 fw, tw;
-      if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
-        f += fw;
-        t += tw;
-        ++count;
-      }
-    }
-    store(a, f, t, count);
-  }
 };
 
 /// Every contact of the step at once, one thread per entry k = q * n + a over (rows.cap +
@@ -554,8 +519,18 @@ struct PairEntries : ContactArgs {
   }
 };
 
-template <bool Cohesion, bool Rolling>
-struct SumEntries : ContactArgs {
+/// The contact forces on sphere a, one thread per sphere: its pair contacts in the order of the
+/// row (stable ids), then its walls in wall order, summed into its force, torque and contact
+/// count. Each pair is evaluated from the side of its lower stable id, by both of its spheres'
+/// threads with identical arithmetic; each thread keeps its own copy of the pair's history, and
+/// the copies stay bit-identical.
+/// - FromEntries = false (`Forces`): the thread evaluates each contact itself, walking its row
+///   (BIODEM_GPU_FORCES=rows).
+/// - FromEntries = true (`SumEntries`): after PairEntries, the thread reads the touching entries'
+///   and walls' results from the per-entry buffers. The same operations in the same order, so
+///   the same bits.
+template <bool Cohesion, bool Rolling, bool FromEntries>
+struct SphereContacts : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t a) const {
     if (halted(halt)) return;
     Vec3 f, t;
@@ -563,19 +538,38 @@ struct SumEntries : ContactArgs {
     const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
     for (std::uint32_t q = 0; q < len; ++q) {
       const std::uint32_t k = q * n + a;
-      if (!rows.touching[k]) continue;
-      add_pair(rows.entry_force[k], rows.entry_torque[k], sid_a < s.sid[rows.j[k]], f, t, count);
+      if constexpr (FromEntries) {
+        if (rows.touching[k]) add_pair(rows.entry_force[k], rows.entry_torque[k], sid_a < s.sid[rows.j[k]], f, t, count);
+      } else {
+        Vec3 fl, ta;
+        bool a_low = false;
+        if (pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
+      }
     }
     for (std::uint32_t w = 0; w < n_walls; ++w) {
       const std::uint32_t slot = w * n + a;
-      if (!wall_touching[slot]) continue;
-      f += rows.wall_force[slot];
-      t += rows.wall_torque[slot];
+      Vec3 fw, tw;
+      if constexpr (FromEntries) {
+        if (!wall_touching[slot]) continue;
+        fw = rows.wall_force[slot];
+        tw = rows.wall_torque[slot];
+      } else {
+        if (!wall_entry<Cohesion, Rolling>(a, w, fw, tw)) continue;
+      }
+      f += fw;
+      t += tw;
       ++count;
     }
-    store(a, f, t, count);
+    s.force[a] = f;
+    s.torque[a] = t;
+    s.contacts[a] = count;
   }
 };
+template <bool Cohesion, bool Rolling>
+using Forces = SphereContacts<Cohesion, Rolling, false>;
+template <bool Cohesion, bool Rolling>
+using SumEntries = SphereContacts<Cohesion, Rolling, true>;
+
 
 /// Force on body k (gravity plus its spheres' contact forces, in template order) and torque
 /// about its centre of mass (ReduceKick, ReduceKickDrift).

@@ -636,6 +636,43 @@ std::string first_difference(const sim::Simulation& a, const sim::Simulation& b)
 
 }  // namespace
 
+// Two engines over two copies of a scene, stepped alike in runs of 37, 1, 113, 8, 64, 29 and 200
+// steps (452 in all) across list checks and rebuilds, with a settle-criterion phase that does not
+// end over runs 3 and 4 and, when `upload_after_run_4`, both engines uploaded again from their
+// host state after run 4 (a checkpoint resumed): the two hosts' state, forces and history must be
+// bit-identical after every run. Returns the steps made.
+std::uint64_t step_alike_in_runs(gpu::DeviceEngine& ea, gpu::DeviceEngine& eb, const sim::Simulation& a,
+                                 const sim::Simulation& b, bool upload_after_run_4) {
+  gpu::DeviceEngine::SettleCriterion never;
+  never.threshold_j = 0.0;
+  never.min_steps = 1000000;
+  const std::uint64_t runs[] = {37, 1, 113, 8, 64, 29, 200};
+  std::uint64_t steps = 0;
+  for (std::size_t r = 0; r < std::size(runs); ++r) {
+    if (r == 3) {
+      ea.begin_settle(never, 0, 0);
+      eb.begin_settle(never, 0, 0);
+    }
+    if (r == 5) {
+      ea.end_settle();
+      eb.end_settle();
+    }
+    EXPECT_EQ(ea.advance(runs[r]).steps, runs[r]);
+    EXPECT_EQ(eb.advance(runs[r]).steps, runs[r]);
+    steps += runs[r];
+    ea.download(true);
+    eb.download(true);
+    const std::string diff = first_difference(a, b);
+    EXPECT_EQ(diff, "") << "after run " << r << " (" << steps << " steps)";
+    if (!diff.empty()) break;
+    if (r == 4 && upload_after_run_4) {
+      ea.upload();
+      eb.upload();
+    }
+  }
+  return steps;
+}
+
 // Between two list checks, outside a settle-criterion phase, the body reduction of step c and
 // the first half of step c + 1 run as one kernel (ReduceKickDrift). The dense packing, stepped
 // in runs of steps (advance) across many list checks and rebuilds, with a criterion phase in the
@@ -650,30 +687,10 @@ TEST(GpuEngine, FusedReduceKickDriftGivesTheBitsOfTheSeparateKernels) {
   eb->set_fused_kick(false);
   ea->upload();
   eb->upload();
-  gpu::DeviceEngine::SettleCriterion never;  // a criterion phase that does not end here
-  never.threshold_j = 0.0;
-  never.min_steps = 1000000;
-  const std::uint64_t runs[] = {37, 1, 113, 8, 64, 29, 200};
-  std::uint64_t steps = 0;
-  for (std::size_t r = 0; r < std::size(runs); ++r) {
-    if (r == 3) {
-      ea->begin_settle(never, 0, 0);
-      eb->begin_settle(never, 0, 0);
-    }
-    if (r == 5) {
-      ea->end_settle();
-      eb->end_settle();
-    }
-    ASSERT_EQ(ea->advance(runs[r]).steps, runs[r]);
-    ASSERT_EQ(eb->advance(runs[r]).steps, runs[r]);
-    steps += runs[r];
-    ea->download(true);
-    eb->download(true);
-    ASSERT_EQ(first_difference(*a, *b), "") << "after run " << r << " (" << steps << " steps)";
-  }
-  std::printf("[measured] fused vs separate kernels: %llu steps in %zu runs, %llu list builds, %llu steps fused "
+  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, false);
+  std::printf("[measured] fused vs separate kernels: %llu steps in 7 runs, %llu list builds, %llu steps fused "
               "(separate engine: %llu); state, forces and history bit-identical after every run\n",
-              static_cast<unsigned long long>(steps), std::size(runs),
+              static_cast<unsigned long long>(steps),
               static_cast<unsigned long long>(ea->list_builds()), static_cast<unsigned long long>(ea->fused_steps()),
               static_cast<unsigned long long>(eb->fused_steps()));
   EXPECT_GT(ea->list_builds(), 5u);
@@ -682,9 +699,9 @@ TEST(GpuEngine, FusedReduceKickDriftGivesTheBitsOfTheSeparateKernels) {
   EXPECT_EQ(eb->fused_steps(), 0u);
 }
 
-// The pair forces as one thread per row entry (PairEntries) and a per-sphere sum of the row in
-// order (SumEntries) against one thread per sphere walking its row (Forces): the same operations
-// in the same order, so the same bits. The 436-body packing (cohesion, rolling friction, a
+// The contact forces as one thread per row entry and wall slot (PairEntries) and a per-sphere sum
+// of the row and walls in order (SumEntries) against one thread per sphere walking its row and
+// walls (Forces): the same operations in the same order, so the same bits. The 436-body packing (cohesion, rolling friction, a
 // turning cylinder, a periodic axis), stepped in runs across list checks, rebuilds and a
 // criterion phase, with a download and upload in the middle: state, forces, contact counts,
 // pair and wall history bit-identical after every run.
@@ -695,31 +712,7 @@ TEST(GpuEngine, EntryForcesGiveTheBitsOfTheRowWalk) {
   eb->set_entry_forces(false);
   ea->upload();
   eb->upload();
-  gpu::DeviceEngine::SettleCriterion never;
-  never.threshold_j = 0.0;
-  never.min_steps = 1000000;
-  const std::uint64_t runs[] = {37, 1, 113, 8, 64, 29, 200};
-  std::uint64_t steps = 0;
-  for (std::size_t r = 0; r < std::size(runs); ++r) {
-    if (r == 3) {
-      ea->begin_settle(never, 0, 0);
-      eb->begin_settle(never, 0, 0);
-    }
-    if (r == 5) {
-      ea->end_settle();
-      eb->end_settle();
-    }
-    ASSERT_EQ(ea->advance(runs[r]).steps, runs[r]);
-    ASSERT_EQ(eb->advance(runs[r]).steps, runs[r]);
-    steps += runs[r];
-    ea->download(true);
-    eb->download(true);
-    ASSERT_EQ(first_difference(*a, *b), "") << "after run " << r << " (" << steps << " steps)";
-    if (r == 4) {  // a checkpoint resumed: both engines start again from the host state
-      ea->upload();
-      eb->upload();
-    }
-  }
+  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
   std::printf("[measured] entry kernels vs row walk: %llu steps, %llu list builds, %llu force passes by the "
               "entry kernels (row-walk engine: %llu); state, forces and history bit-identical after every run\n",
               static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
