@@ -539,7 +539,12 @@ struct SphereContacts : ContactArgs {
     for (std::uint32_t q = 0; q < len; ++q) {
       const std::uint32_t k = q * n + a;
       if constexpr (FromEntries) {
-        if (rows.touching[k]) add_pair(rows.entry_force[k], rows.entry_torque[k], sid_a < s.sid[rows.j[k]], f, t, count);
+        // Every load of the entry unconditional, so that a GPU thread has the loads of several
+        // entries in flight at once; only the additions wait for `touching`.
+        const bool touching = rows.touching[k] != 0;
+        const Vec3 fe = rows.entry_force[k], te = rows.entry_torque[k];
+        const bool low = sid_a < s.sid[rows.j[k]];
+        if (touching) add_pair(fe, te, low, f, t, count);
       } else {
         Vec3 fl, ta;
         bool a_low = false;
