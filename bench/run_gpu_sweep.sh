@@ -2,11 +2,13 @@
 # Where the GPU engine's step time goes, and which launch settings help (docs/gpu.md section 4):
 #   1. Nsight Compute (ncu) kernel durations in a window of the timed rotation phase of each
 #      bench drum (plain launches, BIODEM_GPU_GRAPH=0, so that ncu counts every kernel);
-#   2. bench/run_gpu_bench.sh on the GPU for several values of BIODEM_GPU_BLOCK (threads per
-#      block) and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and
-#      again last (the spread of the two is the noise).
-# Neither setting changes results: they change how the same kernels are launched and when the
-# list is rebuilt, and results do not depend on the rebuild (docs/gpu.md section 2).
+#   2. bench/run_gpu_bench.sh on the GPU for several values of BIODEM_GPU_FORCES (force kernels),
+#      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
+#      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
+#      last (the spread of the two is the noise).
+# No setting changes results: they change which of two bit-identical kernel sets runs, how the
+# kernels are launched and when the list is rebuilt, and results do not depend on the rebuild
+# (docs/gpu.md section 2).
 #
 #   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
 #                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES
@@ -56,8 +58,9 @@ done
 # ------------------------------------------------------------------------ 2. the sweep
 results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 \
-  BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default}
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
+  BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_SKIN_DIAMETERS=1 \
+  BIODEM_GPU_BLOCK=64 BIODEM_GPU_CHECK_EVERY=20 default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()

@@ -97,7 +97,9 @@ if want check; then
 fi
 if [ $smoke -eq 0 ] && want sweep; then
   stamp "3. bench/run_gpu_sweep.sh: kernel durations, launch settings"
-  BIODEM=build-gpu/biodem OUT="$O/sweep" SWEEP_SETTINGS="${GPU_LEASE_SWEEP_SETTINGS-default BIODEM_GPU_BLOCK=32 BIODEM_GPU_BLOCK=64 BIODEM_GPU_BLOCK=256 BIODEM_GPU_CHECK_EVERY=20 BIODEM_GPU_CHECK_EVERY=40 BIODEM_GPU_CHECK_EVERY=64 default}" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
+  sweep_env=()
+  [ -n "${GPU_LEASE_SWEEP_SETTINGS+set}" ] && sweep_env=("SWEEP_SETTINGS=$GPU_LEASE_SWEEP_SETTINGS")
+  env "${sweep_env[@]}" BIODEM=build-gpu/biodem OUT="$O/sweep" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
   stamp "sweep: status $?"
   cp "$O/sweep/sweep.csv" "$O/sweep_results.csv" 2>/dev/null
 fi

@@ -98,6 +98,17 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_FORCES = '" + v + "': expected entries, rows or auto");
       forces_mode_ = v == "entries" ? ForcesMode::entries : v == "rows" ? ForcesMode::rows : ForcesMode::automatic;
     }
+    // BIODEM_GPU_SKIN_DIAMETERS=F (0 < F <= 2): the device list's skin is F times the smallest
+    // sphere diameter instead of the case's skin (fewer rebuilds for longer rows; for sweeps:
+    // results do not depend on the skin, but the skin is part of the state a download hands
+    // back, so checkpoints then differ in it).
+    if (const char* skin = std::getenv("BIODEM_GPU_SKIN_DIAMETERS"); skin && *skin) {
+      char* end = nullptr;
+      const double v = std::strtod(skin, &end);
+      if (*end != '\0' || !(v > 0.0 && v <= 2.0))
+        throw Error("BIODEM_GPU_SKIN_DIAMETERS = '" + std::string(skin) + "': expected a number above 0 and at most 2");
+      skin_diameters_ = v;
+    }
     // BIODEM_GPU_CHECK_EVERY=N (1 to 64): at most N steps between two list checks (default 10;
     // fewer when spheres move fast). Results do not depend on it (docs/gpu.md, section 4).
     if (const char* every = std::getenv("BIODEM_GPU_CHECK_EVERY"); every && *every) {
@@ -279,6 +290,7 @@ class Engine final : public DeviceEngine {
   bool cohesion_ = false, rolling_ = false;
   neighbor::Domain domain_;
   double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
+  double skin_diameters_ = 0.0;  // BIODEM_GPU_SKIN_DIAMETERS (0: the case's skin)
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
   std::uint64_t widenings_ = 0;  // list builds redone with wider rows
@@ -339,11 +351,12 @@ inline void Engine::upload() {
   gravity_ = host_.gravity_m_s2();
   domain_ = host_.domain();
   skin_ = host_.skin_m();
+  double rmin = 1e300;
+  for (double r : s.radius_m) rmin = std::min(rmin, r);
   if (skin_ < 0.0) {  // not yet resolved by a host refresh: the same default (neighbor/skin.hpp)
-    double rmin = 1e300;
-    for (double r : s.radius_m) rmin = std::min(rmin, r);
     skin_ = s.size() ? neighbor::default_skin_m(rmin) : 1e-3;
   }
+  if (skin_diameters_ > 0.0 && s.size()) skin_ = skin_diameters_ * 2.0 * rmin;
   r_max_ = 0.0;
   for (double r : s.radius_m) r_max_ = std::max(r_max_, r);
   cohesion_ = pt.any_cohesion();
