@@ -8,7 +8,8 @@
 # builds, then runs, each recorded as PASS / FAIL / SKIP in one Markdown report:
 #   1. the GPU tests (tests/gpu, GpuRuns.*) on the device, with CUDA_LAUNCH_BLOCKING=1 and without;
 #   2. compute-sanitizer memcheck, initcheck, racecheck and synccheck on a short drum of 40,200
-#      spheres (tests/cases/gpu_check_drum40k.toml);
+#      spheres (tests/cases/gpu_check_drum40k.toml), memcheck and initcheck again with the entry
+#      contact kernels (BIODEM_GPU_FORCES=entries); run after check 6, being the slowest;
 #   3. two identical runs of a cohesive needle drum, compared byte for byte (series, trace,
 #      snapshots, checkpoint), and (3b) the same run with every loop on two threads
 #      (BIODEM_TEST_PARALLEL_THRESHOLD=0 --threads 2) compared with them;
@@ -297,14 +298,18 @@ fi
 # -------------------------------------------------------------------- 2. compute-sanitizer (run after 6: the slowest check)
 if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
-  for tool in memcheck initcheck racecheck synccheck; do
-    if [ ! -x "$san" ]; then record "2. compute-sanitizer $tool" FAIL "compute-sanitizer not found"; continue; fi
-    rm -rf "$OUT/san_$tool"
-    if "${TMO[@]}" "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml --out "$OUT/san_$tool" \
-         --device gpu > "$logs/sanitizer_$tool.txt" 2>&1; then
-      record "2. compute-sanitizer $tool (40,200 spheres)" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_$tool.txt" | tail -n 1)"
+  # The 40k drum runs the row-walk contact kernel by default (BIODEM_GPU_FORCES=auto picks it
+  # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
+  for job in memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries; do
+    tool=${job%:*} forces=${job#*:}
+    name="2. compute-sanitizer $tool (40,200 spheres$([ "$forces" = entries ] && echo ', entry kernels'))"
+    if [ ! -x "$san" ]; then record "$name" FAIL "compute-sanitizer not found"; continue; fi
+    rm -rf "$OUT/san_${tool}_$forces"
+    if BIODEM_GPU_FORCES=$forces "${TMO[@]}" "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml \
+         --out "$OUT/san_${tool}_$forces" --device gpu > "$logs/sanitizer_${tool}_$forces.txt" 2>&1; then
+      record "$name" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_${tool}_$forces.txt" | tail -n 1)"
     else
-      record "2. compute-sanitizer $tool (40,200 spheres)" FAIL "see logs/sanitizer_$tool.txt"
+      record "$name" FAIL "see logs/sanitizer_${tool}_$forces.txt"
     fi
   done
 else
