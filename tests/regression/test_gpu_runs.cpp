@@ -166,6 +166,27 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
   EXPECT_NE(rb.status, 0);
 }
 
+// The GPU engine's switches (docs/gpu.md, "Switches"): a value outside the documented ones stops
+// the run with status 2 and one line naming the variable, before anything is written.
+// (BIODEM_GPU_BLOCK is read by the CUDA engine only.)
+TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
+  for (const std::string bad : {"BIODEM_GPU_FORCES=rowz", "BIODEM_GPU_SKIN_DIAMETERS=0", "BIODEM_GPU_SKIN_DIAMETERS=2.5",
+                                "BIODEM_GPU_CHECK_EVERY=65", "BIODEM_GPU_CHECK_EVERY=0", "BIODEM_GPU_SORT=-1",
+                                "BIODEM_GPU_FUSE=2"}) {
+    const std::string d = fresh_dir("gpu_bad_switch");
+    auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
+    const std::string name = bad.substr(0, bad.find('='));
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find(name + " = '"), std::string::npos) << bad << ": " << r.output;
+    EXPECT_FALSE(fs::exists(d + "/series.csv")) << bad << ": nothing may be computed or written";
+    EXPECT_FALSE(fs::exists(d + "/run.log")) << bad;
+  }
+  const std::string ok = fresh_dir("gpu_good_switch");  // the documented values run
+  auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 " + biodem_exe() +
+                       " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
 // The device stores the bodies sorted by neighbour-list cell (docs/gpu.md); downloads and
 // checkpoints map them back to the host's order, and no result depends on the storage order.
 // The cohesive needle drum with the bodies sorted at every list build (BIODEM_GPU_SORT=1), at
