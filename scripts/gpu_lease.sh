@@ -56,6 +56,10 @@ O=$(cd "$O" && pwd)
 src=${GPU_LEASE_SOURCE_DIR:-$(cat devcarry/source_dir)}
 if [ "$src" != "$root" ]; then
   if [ ! -e "$src" ]; then mkdir -p "$(dirname "$src")" && ln -s "$root" "$src"; fi
+  if [ "$(cd "$src" 2>/dev/null && pwd -P)" != "$(pwd -P)" ]; then
+    echo "the carried build was configured in $src, which is another folder on this machine: run --prepare in a checkout whose path is free here, or move $src away" >&2
+    exit 2
+  fi
   cd "$src" || exit 2
 fi
 if [ -d devcarry/build-gpu ]; then rm -rf build-gpu && mv devcarry/build-gpu build-gpu; fi
