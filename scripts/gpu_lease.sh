@@ -3,21 +3,32 @@
 # build is made beforehand on the Debian machine (it needs no GPU to compile), carried over with
 # the source tree, and this script spends the lease on running, not compiling:
 #
-#   on the Debian machine:  bash scripts/gpu_lease.sh --prepare [--fmad]   # devcarry/: build, libraries
-#   on the GPU machine:     bash scripts/gpu_lease.sh                # checks and timings, OUT_DIR
+#   on the Debian machine:  bash scripts/gpu_lease.sh --prepare [--fmad]   # devcarry/
+#   on the GPU machine:     bash scripts/gpu_lease.sh                      # GPU_LEASE_OUT
 #
-# In order, each under its own time limit, so that a lease cut short still leaves the most
-# important figures: (0) the device and a smoke run; (1) bench/run_gpu_bench.sh on the GPU with
-# the CPU engine on all cores beside it, then the same GPU runs with each force kernel forced
-# (BIODEM_GPU_FORCES=entries, =rows) and, when prepared with --fmad, a build with -fmad=true; (2) scripts/gpu_check.sh on the carried build (GPU tests, determinism, kill-and-resume,
-# CPU agreement, wider rows, compute-sanitizer last). Results: GPU_LEASE_OUT (default
-# out/gpu_lease): report.md, bench CSVs, and everything in lease.tgz.
+# --prepare makes the lean CUDA build (build-gpu/, sm_90, no OpenCV, pagmo or MPI) and copies
+# what the runs need into devcarry/ (ignored by git): the binaries and ctest's files, the CUDA
+# runtime, libgomp and libstdc++ (used only if the GPU machine's own are missing), the path the
+# build was configured in; --fmad adds a biodem built with -fmad=true.
 #
-# Environment: GPU_LEASE_STEPS (default "bench check"; also "sweep": bench/run_gpu_sweep.sh,
-# "scaling": bench/run_scaling.sh on the CPU engine at 1-16 threads), GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder that gets only the report, the CSVs, the
-# log and lease.tgz: a lease that brings back few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260),
-# GPU_LEASE_BENCH_S, GPU_LEASE_BENCH2_S (seconds for the first and the two other bench runs, default
-# 200 and 60), GPU_LEASE_SOURCE_DIR (where the build was configured; default: read from the carried build).
+# On the GPU machine, in order, each under its own time limit, so that a lease cut short still
+# leaves the most important figures: (0) the device and a smoke run; (1) "bench":
+# bench/run_gpu_bench.sh on the GPU with the CPU engine on all cores beside it, then the same GPU
+# runs with each contact kernel set forced (BIODEM_GPU_FORCES=entries, =rows) and, when prepared
+# with --fmad, the -fmad=true build; (2) "check": scripts/gpu_check.sh on the carried build (GPU
+# tests, determinism, kill-and-resume, CPU agreement, wider rows, compute-sanitizer last);
+# (3) "sweep": bench/run_gpu_sweep.sh (ncu kernel durations, launch settings, skins);
+# (4) "scaling": bench/run_scaling.sh, the CPU engine at 1-16 threads on the raw drum with a
+# shortened settle. Results in GPU_LEASE_OUT (default out/gpu_lease): report.md, the CSV files,
+# lease.log, and everything in lease.tgz.
+#
+# Environment: GPU_LEASE_STEPS (default "bench check"), GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder
+# that gets only the report, the CSV files, the log and lease.tgz, for a lease that brings back
+# few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260), GPU_LEASE_BENCH_S and
+# GPU_LEASE_BENCH2_S (the first and each further bench, default 200 and 60), GPU_LEASE_SWEEP_S
+# (200), GPU_LEASE_SWEEP_SETTINGS (run_gpu_sweep.sh's SWEEP_SETTINGS), GPU_LEASE_SCALING_S (120),
+# GPU_LEASE_CPU_THREADS (CPU engine threads beside the GPU bench; default all, empty: none),
+# GPU_LEASE_SOURCE_DIR (where the build was configured; default: devcarry/source_dir).
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
