@@ -307,7 +307,7 @@ class Engine final : public DeviceEngine {
   enum class ForcesMode { automatic, entries, rows };
   ForcesMode forces_mode_ = ForcesMode::automatic;
   /// PairEntries + SumEntries instead of Forces.
-  bool entries_() const {
+  bool use_entry_kernels() const {
     return forces_mode_ == ForcesMode::entries || (forces_mode_ == ForcesMode::automatic && ns() < kEntryForcesBelow);
   }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
@@ -315,7 +315,7 @@ class Engine final : public DeviceEngine {
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
   bool entries_ready() const {
-    return entries_() && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
+    return use_entry_kernels() && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
            wall_force_.size() >= static_cast<std::size_t>(n_walls_) * ns();
   }
   template <bool Cohesion, bool Rolling>
@@ -597,7 +597,7 @@ inline void Engine::build_list() {
   }
   thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if (entries_() && !entries_ready()) {
+  if (use_entry_kernels() && !entries_ready()) {
     entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
     entry_torque_.resize(entry_force_.size());
     wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));

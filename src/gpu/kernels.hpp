@@ -485,7 +485,6 @@ struct ContactArgs {
     torque = out.torque_i;
     return true;
   }
-
 };
 
 /// Every contact of the step at once, one thread per entry k = q * n + a over (rows.cap +
@@ -574,7 +573,6 @@ template <bool Cohesion, bool Rolling>
 using Forces = SphereContacts<Cohesion, Rolling, false>;
 template <bool Cohesion, bool Rolling>
 using SumEntries = SphereContacts<Cohesion, Rolling, true>;
-
 
 /// Force on body k (gravity plus its spheres' contact forces, in template order) and torque
 /// about its centre of mass (ReduceKick, ReduceKickDrift).
