@@ -186,7 +186,7 @@ class Engine final : public DeviceEngine {
             raw<std::uint32_t>(s_sid_), raw<std::uint32_t>(s_contacts_)};
   }
   struct Rows {
-    vec<std::uint32_t> j;
+    vec<std::uint32_t> j, sid;
     vec<std::int32_t> image;
     vec<std::uint8_t> touching;
     vec<contact::ContactHistory> history;
@@ -197,22 +197,26 @@ class Engine final : public DeviceEngine {
       cap = c;
       generation = gen;
       j.assign(n * c, 0u);
+      sid.assign(n * c, 0u);
       image.assign(n * c, 0);
       touching.assign(n * c, 0);
       history.assign(n * c, contact::ContactHistory{});
       length.assign(n, 0u);
     }
     RowArrays arrays() {
-      return {raw<std::uint32_t>(j), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
+      return {raw<std::uint32_t>(j), raw<std::uint32_t>(sid), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
               raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap, nullptr, nullptr, nullptr, nullptr};
     }
   };
 
-  void build_list();
+  /// The list build. `box`: the spheres' bounding box, from the list check's reduction (whose
+  /// positions it found finite); null (upload): checked and reduced here.
+  void build_list(const Box* box = nullptr);
   /// At a list build, after CellOf: sorts the bodies by the cell of their first sphere (stable)
   /// and reorders every body- and sphere-indexed array and the wall history to match; the rows
-  /// are rebuilt right after, with their history carried over through sphere_src_ and
-  /// sphere_dst_. False when the bodies were already in order (nothing moved).
+  /// are rebuilt right after, with their history carried over from the old rows (sphere_src_
+  /// names each sphere's old row; entries match by stable id). False when the bodies were
+  /// already in order (nothing moved).
   bool sort_bodies();
   /// a[k] = a[src[k]] for every k (thrust::gather through scratch; a keeps its buffer, which
   /// the CUDA graphs hold).
@@ -265,9 +269,9 @@ class Engine final : public DeviceEngine {
   // cell"): host body of each device body slot, device slot of each host body, host sphere of
   // each device sphere. The identity after upload(), until the first sort.
   vec<std::uint32_t> b_host_, b_slot_, s_host_;
-  // A sort's work arrays: body keys, the new order of the bodies, the old first spheres, each
-  // new sphere's old index and each old sphere's new index; scratch of each element type.
-  vec<std::uint32_t> body_key_, body_order_, old_first_, sphere_src_, sphere_dst_;
+  // A sort's work arrays: body keys, the new order of the bodies, the old first spheres and each
+  // new sphere's old index; scratch of each element type.
+  vec<std::uint32_t> body_key_, body_order_, old_first_, sphere_src_;
   vec<Vec3> tmp_vec3_;
   vec<Quat> tmp_quat_;
   vec<double> tmp_double_;
@@ -281,6 +285,11 @@ class Engine final : public DeviceEngine {
   Rows rows_, old_rows_;
   vec<std::uint32_t> cell_key_, sorted_, cell_start_;
   vec<Int3> wrap_, cell_;
+  // the spheres' data in cell order, for BuildRows (PackByCell)
+  vec<Vec3> packed_pos_;
+  vec<double> packed_radius_;
+  vec<std::uint32_t> packed_body_, packed_sid_;
+  vec<Int3> packed_wrap_;
   // walls and pair table
   vec<DeviceWall> walls_;
   vec<contact::ContactHistory> wall_history_;
@@ -440,13 +449,14 @@ inline void Engine::upload() {
     cap = std::max(cap, r.size());
   }
   {
-    std::vector<std::uint32_t> j(n * cap, 0), len(n, 0);
+    std::vector<std::uint32_t> j(n * cap, 0), sid(n * cap, 0), len(n, 0);
     std::vector<std::uint8_t> touch(n * cap, 0);
     std::vector<contact::ContactHistory> hist(n * cap);
     for (std::size_t i = 0; i < n; ++i) {
       len[i] = static_cast<std::uint32_t>(per[i].size());
       for (std::size_t q = 0; q < per[i].size(); ++q) {
         j[q * n + i] = per[i][q].first;
+        sid[q * n + i] = sid_host_[per[i][q].first];
         hist[q * n + i] = per[i][q].second;
         touch[q * n + i] = 1;
       }
@@ -455,6 +465,7 @@ inline void Engine::upload() {
     rows_.cap = static_cast<std::uint32_t>(cap);
     rows_.generation = ++generation_;
     to_device(rows_.j, j);
+    to_device(rows_.sid, sid);
     to_device(rows_.length, len);
     to_device(rows_.touching, touch);
     to_device(rows_.history, hist);
@@ -520,14 +531,19 @@ inline void Engine::check_finite() {
   }
 }
 
-inline void Engine::build_list() {
+inline void Engine::build_list(const Box* known_box) {
   const std::uint32_t n = ns();
   if (n == 0) return;
-  check_finite();
+  Box box;
+  if (known_box) {
+    box = *known_box;
+  } else {
+    check_finite();
+    box = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                   thrust::counting_iterator<std::uint32_t>(n), BoxOfSphere{sphere_arrays()}, Box{},
+                                   BoxUnion{});
+  }
   const double cutoff = 2.0 * r_max_ + skin_;
-  const Box box = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                           thrust::counting_iterator<std::uint32_t>(n), BoxOfSphere{sphere_arrays()},
-                                           Box{}, BoxUnion{});
   GridParams g;
   const Vec3 len = domain_.length_m();
   double cell = cutoff;
@@ -565,13 +581,11 @@ inline void Engine::build_list() {
   sorted_.resize(n);
   launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
   const std::uint32_t* old_of = nullptr;  // set when this build reorders the bodies (BuildRows)
-  const std::uint32_t* new_of = nullptr;
   if (builds_until_sort_ && --builds_until_sort_ == 0) {
     builds_until_sort_ = sort_every_;
     if (sort_bodies()) {
       launch(n, CellOf{sphere_arrays(), g, raw<std::uint32_t>(cell_key_), raw<Int3>(wrap_), raw<Int3>(cell_)});
       old_of = raw<std::uint32_t>(sphere_src_);
-      new_of = raw<std::uint32_t>(sphere_dst_);
     }
   }
   thrust::sequence(exec(), sorted_.begin(), sorted_.end());
@@ -580,15 +594,22 @@ inline void Engine::build_list() {
   thrust::lower_bound(exec(), cell_key_.begin(), cell_key_.end(), thrust::counting_iterator<std::uint32_t>(0),
                       thrust::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(ncell + 1)),
                       cell_start_.begin());
+  packed_pos_.resize(n);
+  packed_radius_.resize(n);
+  packed_body_.resize(n);
+  packed_sid_.resize(n);
+  packed_wrap_.resize(n);
+  const CellPacked packed{raw<Vec3>(packed_pos_), raw<double>(packed_radius_), raw<std::uint32_t>(packed_body_),
+                          raw<std::uint32_t>(packed_sid_), raw<Int3>(packed_wrap_)};
+  launch(n, PackByCell{sphere_arrays(), raw<std::uint32_t>(sorted_), raw<Int3>(wrap_), packed});
 
   // The current rows become the old rows; build new ones, enlarging them until every row fits.
   std::swap(rows_, old_rows_);
   std::uint32_t cap = std::max<std::uint32_t>(rows_.cap, 16);
   for (;;) {
     if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
-    launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_),
-                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of,
-                        new_of});
+    launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_), packed,
+                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of});
     const std::uint32_t longest =
         thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
     if (longest <= cap) break;
@@ -634,11 +655,8 @@ inline bool Engine::sort_bodies() {
   permute(b_count_, body_order_, tmp_u32_);
   thrust::exclusive_scan(exec(), b_count_.begin(), b_count_.end(), b_first_.begin());
   sphere_src_.resize(n);
-  sphere_dst_.resize(n);
   launch(m, SphereSources{raw<std::uint32_t>(body_order_), raw<std::uint32_t>(old_first_), raw<std::uint32_t>(b_first_),
                           raw<std::uint32_t>(b_count_), raw<std::uint32_t>(sphere_src_), raw<std::uint32_t>(s_body_)});
-  thrust::scatter(exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(n),
-                  sphere_src_.begin(), sphere_dst_.begin());
   for (auto* a : {&b_pos_, &b_vel_, &b_omega_, &b_l_, &b_force_, &b_torque_, &b_inertia_})
     permute(*a, body_order_, tmp_vec3_);
   permute(b_q_, body_order_, tmp_quat_);
@@ -860,7 +878,7 @@ inline void Engine::check_list() {
   const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
   double room = half_skin - moved;
   if (room < check_every_ * per_step) {
-    build_list();
+    build_list(&m.box);  // (positions found finite above: moved < half the skin)
     room = half_skin;
   }
   if (per_step > 0.0)

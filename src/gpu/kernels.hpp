@@ -46,9 +46,13 @@ struct SphereArrays {
 };
 
 /// Fixed-width neighbour rows, column-major (entry q of sphere i at q * n + i) so that the threads
-/// of neighbouring spheres read neighbouring words. Each row is sorted by the neighbour's stable id.
+/// of neighbouring spheres read neighbouring words. Each row is sorted by the neighbour's stable id,
+/// which the row keeps beside the neighbour's index (`sid`): the list build sorts and carries the
+/// history by it, and the force kernels tell a pair's lower-id side by it, without a second,
+/// dependent load through the neighbour's index.
 struct RowArrays {
   std::uint32_t* j;
+  std::uint32_t* sid;  // stable id of sphere j[k]
   std::int32_t* image;  // periodic image shift from the row owner's side, packed int8 x3
   std::uint8_t* touching;
   contact::ContactHistory* history;  // from the side of the pair's lower stable id
@@ -131,21 +135,41 @@ struct KickDriftSpheres {
   }
 };
 
+struct Box {
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+};
+struct BoxOfSphere {
+  SphereArrays s;
+  BIODEM_HD Box operator()(std::uint32_t i) const { return Box{s.position[i], s.position[i]}; }
+};
+struct BoxUnion {
+  BIODEM_HD Box operator()(const Box& a, const Box& c) const {
+    Box r;
+    r.lo = {a.lo.x < c.lo.x ? a.lo.x : c.lo.x, a.lo.y < c.lo.y ? a.lo.y : c.lo.y, a.lo.z < c.lo.z ? a.lo.z : c.lo.z};
+    r.hi = {a.hi.x > c.hi.x ? a.hi.x : c.hi.x, a.hi.y > c.hi.y ? a.hi.y : c.hi.y, a.hi.z > c.hi.z ? a.hi.z : c.hi.z};
+    return r;
+  }
+};
+
 /// Largest squared displacement since the last build and largest squared sphere speed (a NaN
-/// displacement, from a non-finite position, counts as infinite).
+/// displacement, from a non-finite position, counts as infinite), and the spheres' bounding box:
+/// the list check's one reduction, which also gives a rebuild its box.
 struct Motion {
   double disp2 = 0.0, speed2 = 0.0;
+  Box box;
 };
 struct SphereMotion {
   SphereArrays s;
   BIODEM_HD Motion operator()(std::uint32_t i) const {
-    const double d2 = norm2(s.position[i] - s.built_at[i]);
-    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i])};
+    const Vec3 x = s.position[i];
+    const double d2 = norm2(x - s.built_at[i]);
+    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}};
   }
 };
 struct MotionMax {
   BIODEM_HD Motion operator()(const Motion& a, const Motion& b) const {
-    return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2};
+    return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2,
+                  BoxUnion{}(a.box, b.box)};
   }
 };
 
@@ -184,22 +208,6 @@ struct KeepSetupHistory {
   const std::uint8_t* touching_before;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (touching[k]) history[k] = touching_before[k] ? history_before[k] : contact::ContactHistory{};
-  }
-};
-
-struct Box {
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-};
-struct BoxOfSphere {
-  SphereArrays s;
-  BIODEM_HD Box operator()(std::uint32_t i) const { return Box{s.position[i], s.position[i]}; }
-};
-struct BoxUnion {
-  BIODEM_HD Box operator()(const Box& a, const Box& c) const {
-    Box r;
-    r.lo = {a.lo.x < c.lo.x ? a.lo.x : c.lo.x, a.lo.y < c.lo.y ? a.lo.y : c.lo.y, a.lo.z < c.lo.z ? a.lo.z : c.lo.z};
-    r.hi = {a.hi.x > c.hi.x ? a.hi.x : c.hi.x, a.hi.y > c.hi.y ? a.hi.y : c.hi.y, a.hi.z > c.hi.z ? a.hi.z : c.hi.z};
-    return r;
   }
 };
 
@@ -244,29 +252,62 @@ struct CellOf {
   }
 };
 
+/// The spheres in cell order (position p of `sorted`), packed for BuildRows: a row build then
+/// reads each candidate's data at p directly instead of through its index (one dependent global
+/// load per candidate instead of two). One index per position p.
+struct CellPacked {
+  Vec3* position;
+  double* radius;
+  std::uint32_t *body, *sid;
+  Int3* wrap;
+};
+struct PackByCell {
+  SphereArrays s;
+  const std::uint32_t* sorted;
+  const Int3* wrap;  // by sphere index (CellOf)
+  CellPacked out;
+  BIODEM_HD void operator()(std::uint32_t p) const {
+    const std::uint32_t j = sorted[p];
+    out.position[p] = s.position[j];
+    out.radius[p] = s.radius[j];
+    out.body[p] = s.body[j];
+    out.sid[p] = s.sid[j];
+    out.wrap[p] = wrap[j];
+  }
+};
+
+/// Rows up to this long are built in the thread's own memory (registers or the L1-cached local
+/// memory of a GPU thread) and written out once; wider rows are built in place in the row
+/// arrays. The same rows either way.
+inline constexpr std::uint32_t kLocalRow = 48;
+
 /// Builds sphere i's full neighbour row (all spheres of other bodies closer than r_i + r_j +
 /// skin, sorted by stable id) and carries the history of touching pairs over from the old row.
 /// A row longer than the capacity is counted (length > cap) and not stored; the host then
 /// enlarges the rows and builds again. When the bodies were sorted just before this build, the
-/// old rows are in the storage order before the sort: sphere i's old row is column old_of[i],
-/// and an old entry naming sphere j (old index) names new_of[j] now (null: the same order).
+/// old rows are in the storage order before the sort: sphere i's old row is column old_of[i]
+/// (null: the same order). Old and new entries are matched by stable id, which a sort leaves
+/// unchanged.
 struct BuildRows {
   SphereArrays s;
   GridParams g;
   const std::uint32_t* sorted;      // sphere indices sorted by cell
   const std::uint32_t* cell_start;  // per cell, first position in `sorted` (size ncell + 1)
+  CellPacked packed;                // the spheres' data at the positions of `sorted` (PackByCell)
   const Int3* wrap;
   const Int3* cell;
   RowArrays old_rows, rows;
   std::uint32_t n;
   double skin;
   const std::uint32_t* old_of;  // new sphere index -> its index in old_rows (null: identity)
-  const std::uint32_t* new_of;  // old sphere index -> new index (null: identity)
   BIODEM_HD void operator()(std::uint32_t i) const {
     const Vec3 xi = s.position[i];
     const double ri = s.radius[i];
     const std::uint32_t bi = s.body[i];
     const Int3 ci = cell[i], wi = wrap[i];
+    const bool local = rows.cap <= kLocalRow;
+    std::uint32_t lj[kLocalRow], lsid[kLocalRow];
+    std::int32_t limg[kLocalRow];
     std::uint32_t len = 0;
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
@@ -289,51 +330,70 @@ struct BuildRows {
           }
           if (skip) continue;
           const std::uint32_t key = static_cast<std::uint32_t>((c[2] * nn[1] + c[1]) * nn[0] + c[0]);
-          for (std::uint32_t p = cell_start[key]; p < cell_start[key + 1]; ++p) {
-            const std::uint32_t jj = sorted[p];
-            if (jj == i || s.body[jj] == bi) continue;
-            const Int3 wj = wrap[jj];
+          const std::uint32_t p_end = cell_start[key + 1];
+          for (std::uint32_t p = cell_start[key]; p < p_end; ++p) {
+            if (packed.body[p] == bi) continue;  // (i itself included)
+            const Int3 wj = packed.wrap[p];
             const int wiv[3] = {wi.x, wi.y, wi.z}, wjv[3] = {wj.x, wj.y, wj.z};
             int sh[3] = {0, 0, 0};
-            Vec3 dv = xi - s.position[jj];
+            Vec3 dv = xi - packed.position[p];
             for (int k = 0; k < 3; ++k)
               if (g.periodic[k]) {
                 sh[k] = wiv[k] - wjv[k] + cw[k];
                 dv[k] -= sh[k] * g.period[k];
               }
-            const double cut = ri + s.radius[jj] + skin;
+            const double cut = ri + packed.radius[p] + skin;
             if (!(norm2(dv) < cut * cut)) continue;
             if (len < rows.cap) {
               // insertion into the row, sorted by stable id
-              const std::uint32_t sj = s.sid[jj];
+              const std::uint32_t jj = sorted[p], sj = packed.sid[p];
+              const std::int32_t img = pack_image(sh[0], sh[1], sh[2]);
               std::uint32_t q = len;
-              while (q > 0 && s.sid[rows.j[(q - 1) * n + i]] > sj) {
-                rows.j[q * n + i] = rows.j[(q - 1) * n + i];
-                rows.image[q * n + i] = rows.image[(q - 1) * n + i];
-                --q;
+              if (local) {
+                while (q > 0 && lsid[q - 1] > sj) {
+                  lj[q] = lj[q - 1];
+                  lsid[q] = lsid[q - 1];
+                  limg[q] = limg[q - 1];
+                  --q;
+                }
+                lj[q] = jj;
+                lsid[q] = sj;
+                limg[q] = img;
+              } else {
+                while (q > 0 && rows.sid[(q - 1) * n + i] > sj) {
+                  rows.j[q * n + i] = rows.j[(q - 1) * n + i];
+                  rows.sid[q * n + i] = rows.sid[(q - 1) * n + i];
+                  rows.image[q * n + i] = rows.image[(q - 1) * n + i];
+                  --q;
+                }
+                rows.j[q * n + i] = jj;
+                rows.sid[q * n + i] = sj;
+                rows.image[q * n + i] = img;
               }
-              rows.j[q * n + i] = jj;
-              rows.image[q * n + i] = pack_image(sh[0], sh[1], sh[2]);
             }
             ++len;
           }
         }
     rows.length[i] = len;
     if (len > rows.cap) return;
-    // History carried over: both rows are sorted by stable id, so one merge pass (keyed by the
-    // stable ids of the current storage order: the old entries are mapped to it first).
+    if (local)
+      for (std::uint32_t q = 0; q < len; ++q) {
+        rows.j[q * n + i] = lj[q];
+        rows.sid[q * n + i] = lsid[q];
+        rows.image[q * n + i] = limg[q];
+      }
+    // History carried over: both rows are sorted by stable id, so one merge pass.
     const std::uint32_t oi = old_of ? old_of[i] : i;
-    auto old_j = [&](std::uint32_t o) {
-      const std::uint32_t j = old_rows.j[o * n + oi];
-      return new_of ? new_of[j] : j;
-    };
     std::uint32_t o = 0;
     const std::uint32_t o_end = old_rows.length[oi];
+    std::uint32_t so = o < o_end ? old_rows.sid[oi] : 0;  // stable id of old entry o
     for (std::uint32_t q = 0; q < len; ++q) {
-      const std::uint32_t jj = rows.j[q * n + i];
-      const std::uint32_t sj = s.sid[jj];
-      while (o < o_end && s.sid[old_j(o)] < sj) ++o;
-      if (o < o_end && old_j(o) == jj && old_rows.touching[o * n + oi]) {
+      const std::uint32_t sj = local ? lsid[q] : rows.sid[q * n + i];
+      while (o < o_end && so < sj) {
+        ++o;
+        if (o < o_end) so = old_rows.sid[o * n + oi];
+      }
+      if (o < o_end && so == sj && old_rows.touching[o * n + oi]) {
         rows.history[q * n + i] = old_rows.history[o * n + oi];
         rows.touching[q * n + i] = 1;
       } else {
@@ -410,7 +470,7 @@ struct ContactArgs {
   BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
                             bool& a_low) const {
     const std::uint32_t b = rows.j[k];
-    a_low = sid_a < s.sid[b];
+    a_low = sid_a < rows.sid[k];
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
     Vec3 d = s.position[i] - s.position[j];
     if (periodic) {
@@ -530,39 +590,66 @@ struct PairEntries : ContactArgs {
 ///   the same bits.
 template <bool Cohesion, bool Rolling, bool FromEntries>
 struct SphereContacts : ContactArgs {
+  /// SumEntries reads the entries (and walls) of a sphere in chunks of this many: every load of a
+  /// chunk is issued before the first addition, so a GPU thread waits for memory once per chunk
+  /// rather than once per entry. The additions stay in row order.
+  static constexpr std::uint32_t kChunk = 8;
+
   BIODEM_HD void operator()(std::uint32_t a) const {
     if (halted(halt)) return;
     Vec3 f, t;
     std::uint32_t count = 0;
     const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
-    for (std::uint32_t q = 0; q < len; ++q) {
-      const std::uint32_t k = q * n + a;
-      if constexpr (FromEntries) {
-        // Every load of the entry unconditional, so that a GPU thread has the loads of several
-        // entries in flight at once; only the additions wait for `touching`.
-        const bool touching = rows.touching[k] != 0;
-        const Vec3 fe = rows.entry_force[k], te = rows.entry_torque[k];
-        const bool low = sid_a < s.sid[rows.j[k]];
-        if (touching) add_pair(fe, te, low, f, t, count);
-      } else {
+    if constexpr (FromEntries) {
+      for (std::uint32_t q0 = 0; q0 < len; q0 += kChunk) {
+        bool touching[kChunk], low[kChunk];
+        Vec3 fe[kChunk], te[kChunk];
+        for (std::uint32_t c = 0; c < kChunk; ++c) {
+          const std::uint32_t q = q0 + c, k = q * n + a;
+          touching[c] = false;
+          low[c] = false;
+          if (q < len) {
+            touching[c] = rows.touching[k] != 0;
+            low[c] = sid_a < rows.sid[k];
+            fe[c] = rows.entry_force[k];
+            te[c] = rows.entry_torque[k];
+          }
+        }
+        for (std::uint32_t c = 0; c < kChunk; ++c)
+          if (touching[c]) add_pair(fe[c], te[c], low[c], f, t, count);
+      }
+      for (std::uint32_t w0 = 0; w0 < n_walls; w0 += kChunk) {
+        bool touching[kChunk];
+        Vec3 fw[kChunk], tw[kChunk];
+        for (std::uint32_t c = 0; c < kChunk; ++c) {
+          const std::uint32_t w = w0 + c, slot = w * n + a;
+          touching[c] = false;
+          if (w < n_walls) {
+            touching[c] = wall_touching[slot] != 0;
+            fw[c] = rows.wall_force[slot];
+            tw[c] = rows.wall_torque[slot];
+          }
+        }
+        for (std::uint32_t c = 0; c < kChunk; ++c)
+          if (touching[c]) {
+            f += fw[c];
+            t += tw[c];
+            ++count;
+          }
+      }
+    } else {
+      for (std::uint32_t q = 0; q < len; ++q) {
         Vec3 fl, ta;
         bool a_low = false;
-        if (pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
+        if (pair_entry<Cohesion, Rolling>(a, sid_a, q * n + a, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
       }
-    }
-    for (std::uint32_t w = 0; w < n_walls; ++w) {
-      const std::uint32_t slot = w * n + a;
-      Vec3 fw, tw;
-      if constexpr (FromEntries) {
-        if (!wall_touching[slot]) continue;
-        fw = rows.wall_force[slot];
-        tw = rows.wall_torque[slot];
-      } else {
+      for (std::uint32_t w = 0; w < n_walls; ++w) {
+        Vec3 fw, tw;
         if (!wall_entry<Cohesion, Rolling>(a, w, fw, tw)) continue;
+        f += fw;
+        t += tw;
+        ++count;
       }
-      f += fw;
-      t += tw;
-      ++count;
     }
     s.force[a] = f;
     s.torque[a] = t;
