@@ -257,6 +257,10 @@ struct System {
   template <class T>
   using vector = thrust::cuda::vector<T>;
   static auto exec() { return thrust::cuda::par(temporary_storage()).on(engine_stream()); }
+  /// The same without the stream synchronisation at the end of each algorithm: the engine's
+  /// stream keeps the order, the caching allocator hands a block back to a later algorithm on
+  /// the same stream only.
+  static auto queue() { return thrust::cuda::par_nosync(temporary_storage()).on(engine_stream()); }
   /// One thread per index, launch_block() per block (the force kernel uses ~96 registers); no
   /// host wait.
   template <class F>

@@ -25,6 +25,7 @@ struct System {
   template <class T>
   using vector = thrust::omp::vector<T>;
   static auto exec() { return thrust::cpp::par; }
+  static auto queue() { return thrust::cpp::par; }
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     if (n >= kParallelThreshold)

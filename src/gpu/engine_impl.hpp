@@ -243,6 +243,10 @@ class Engine final : public DeviceEngine {
   std::uint32_t nb() const { return static_cast<std::uint32_t>(b_mass_.size()); }
   std::uint32_t ns() const { return static_cast<std::uint32_t>(s_radius_.size()); }
   auto exec() const { return System::exec(); }
+  /// For the algorithms whose results stay on the device (sorts, scans, copies, gathers): on
+  /// CUDA without a host wait after each (thrust::cuda::par_nosync), so that a list build waits
+  /// for the device only where the host needs a value (the longest row).
+  auto queue() const { return System::queue(); }
   /// Kernel launch over n indices (on the GPU without a host synchronisation: the next
   /// reduction synchronises).
   template <class F>
@@ -588,10 +592,10 @@ inline void Engine::build_list(const Box* known_box) {
       old_of = raw<std::uint32_t>(sphere_src_);
     }
   }
-  thrust::sequence(exec(), sorted_.begin(), sorted_.end());
-  thrust::stable_sort_by_key(exec(), cell_key_.begin(), cell_key_.end(), sorted_.begin());  // keys not needed after
+  thrust::sequence(queue(), sorted_.begin(), sorted_.end());
+  thrust::stable_sort_by_key(queue(), cell_key_.begin(), cell_key_.end(), sorted_.begin());  // keys not needed after
   cell_start_.resize(ncell + 1);
-  thrust::lower_bound(exec(), cell_key_.begin(), cell_key_.end(), thrust::counting_iterator<std::uint32_t>(0),
+  thrust::lower_bound(queue(), cell_key_.begin(), cell_key_.end(), thrust::counting_iterator<std::uint32_t>(0),
                       thrust::counting_iterator<std::uint32_t>(static_cast<std::uint32_t>(ncell + 1)),
                       cell_start_.begin());
   packed_pos_.resize(n);
@@ -616,7 +620,7 @@ inline void Engine::build_list(const Box* known_box) {
     cap = longest + longest / 4 + 1;
     ++widenings_;
   }
-  thrust::copy(exec(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
+  thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
   if (use_entry_kernels() && !entries_ready()) {
     entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
@@ -633,27 +637,27 @@ void Engine::permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch) 
   // The scratch serves arrays of bodies and of spheres: only ever enlarged (a resize fills the
   // new elements, a kernel on the device and a parallel loop emulated).
   if (scratch.size() < a.size()) scratch.resize(a.size());
-  thrust::copy(exec(), a.begin(), a.end(), scratch.begin());
-  thrust::gather(exec(), src.begin(), src.end(), scratch.begin(), a.begin());
+  thrust::copy(queue(), a.begin(), a.end(), scratch.begin());
+  thrust::gather(queue(), src.begin(), src.end(), scratch.begin(), a.begin());
 }
 
 inline bool Engine::sort_bodies() {
   const std::uint32_t m = nb(), n = ns();
   // Key of a body: the cell of its first sphere (CellOf has just run), in the list's cell order.
   body_key_.resize(m);
-  thrust::gather(exec(), b_first_.begin(), b_first_.end(), cell_key_.begin(), body_key_.begin());
+  thrust::gather(queue(), b_first_.begin(), b_first_.end(), cell_key_.begin(), body_key_.begin());
   if (m < 2 || thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
                                         thrust::counting_iterator<std::uint32_t>(m - 1),
                                         Descends{raw<std::uint32_t>(body_key_)}, 0u, thrust::plus<std::uint32_t>()) == 0)
     return false;
   body_order_.resize(m);
-  thrust::sequence(exec(), body_order_.begin(), body_order_.end());
-  thrust::stable_sort_by_key(exec(), body_key_.begin(), body_key_.end(), body_order_.begin());
+  thrust::sequence(queue(), body_order_.begin(), body_order_.end());
+  thrust::stable_sort_by_key(queue(), body_key_.begin(), body_key_.end(), body_order_.begin());
   // Bodies: counts, then the first spheres of the new order, then each new sphere's source.
   old_first_.resize(m);
-  thrust::copy(exec(), b_first_.begin(), b_first_.end(), old_first_.begin());
+  thrust::copy(queue(), b_first_.begin(), b_first_.end(), old_first_.begin());
   permute(b_count_, body_order_, tmp_u32_);
-  thrust::exclusive_scan(exec(), b_count_.begin(), b_count_.end(), b_first_.begin());
+  thrust::exclusive_scan(queue(), b_count_.begin(), b_count_.end(), b_first_.begin());
   sphere_src_.resize(n);
   launch(m, SphereSources{raw<std::uint32_t>(body_order_), raw<std::uint32_t>(old_first_), raw<std::uint32_t>(b_first_),
                           raw<std::uint32_t>(b_count_), raw<std::uint32_t>(sphere_src_), raw<std::uint32_t>(s_body_)});
@@ -662,7 +666,7 @@ inline bool Engine::sort_bodies() {
   permute(b_q_, body_order_, tmp_quat_);
   permute(b_mass_, body_order_, tmp_double_);
   permute(b_host_, body_order_, tmp_u32_);
-  thrust::scatter(exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(m),
+  thrust::scatter(queue(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(m),
                   b_host_.begin(), b_slot_.begin());
   // Spheres (s_built_at_ is overwritten by this build; cell_key_, wrap_, cell_ are recomputed).
   for (auto* a : {&s_pos_, &s_vel_, &s_omega_, &s_offset_, &s_force_, &s_torque_}) permute(*a, sphere_src_, tmp_vec3_);
@@ -676,10 +680,10 @@ inline bool Engine::sort_bodies() {
     const std::size_t count = static_cast<std::size_t>(n_walls_) * n;
     if (tmp_history_.size() < count) tmp_history_.resize(count);
     if (tmp_u8_.size() < count) tmp_u8_.resize(count);
-    thrust::copy(exec(), wall_history_.begin(), wall_history_.end(), tmp_history_.begin());
-    thrust::copy(exec(), wall_touching_.begin(), wall_touching_.end(), tmp_u8_.begin());
-    thrust::gather(exec(), slots, slots + count, tmp_history_.begin(), wall_history_.begin());
-    thrust::gather(exec(), slots, slots + count, tmp_u8_.begin(), wall_touching_.begin());
+    thrust::copy(queue(), wall_history_.begin(), wall_history_.end(), tmp_history_.begin());
+    thrust::copy(queue(), wall_touching_.begin(), wall_touching_.end(), tmp_u8_.begin());
+    thrust::gather(queue(), slots, slots + count, tmp_history_.begin(), wall_history_.begin());
+    thrust::gather(queue(), slots, slots + count, tmp_u8_.begin(), wall_touching_.begin());
   }
   ++sorts_;
   return true;
