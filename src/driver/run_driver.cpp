@@ -280,6 +280,7 @@ RunSummary Runner::run() {
   else
     log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
          << "\n";
+  if (dev_ && !dev_->profile_report().empty()) log_ << dev_->profile_report() << "\n";
   log_.flush();
   std::ostringstream msg;
   msg << "done: " << r.steps << " steps (" << r.simulated_s << " s simulated) in " << output::format_duration(wall)

@@ -97,6 +97,10 @@ class DeviceEngine {
   /// entry_force_passes() counts the steps whose forces the entry kernels evaluated.
   virtual void set_entry_forces(bool on) = 0;
   virtual std::uint64_t entry_force_passes() const = 0;
+  /// With BIODEM_GPU_PROFILE=1: one line saying where the wall time of the steps went (step
+  /// kernels between list checks, list checks, list builds, the rest), for run.log; empty
+  /// otherwise. The host then waits for the device after each of them to time it.
+  virtual std::string profile_report() const = 0;
   /// The bodies are stored on the device sorted by the neighbour-list cell of their first sphere
   /// (each body's spheres contiguous, in template order), re-sorted at the list build of every
   /// upload and every N-th build after it (N = 4 by default; BIODEM_GPU_SORT=N or this switch;

@@ -261,6 +261,11 @@ struct System {
   /// stream keeps the order, the caching allocator hands a block back to a later algorithm on
   /// the same stream only.
   static auto queue() { return thrust::cuda::par_nosync(temporary_storage()).on(engine_stream()); }
+  /// Waits for everything launched on the engine's stream (BIODEM_GPU_PROFILE).
+  static void wait() {
+    const cudaError_t e = cudaStreamSynchronize(engine_stream());
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error: ") + cudaGetErrorString(e));
+  }
   /// One thread per index, launch_block() per block (the force kernel uses ~96 registers); no
   /// host wait.
   template <class F>

@@ -26,6 +26,8 @@ struct System {
   using vector = thrust::omp::vector<T>;
   static auto exec() { return thrust::cpp::par; }
   static auto queue() { return thrust::cpp::par; }
+  /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
+  static void wait() {}
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     if (n >= kParallelThreshold)

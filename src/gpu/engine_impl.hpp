@@ -19,7 +19,9 @@
 #include <thrust/transform_reduce.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <numeric>
@@ -118,6 +120,12 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_CHECK_EVERY = '" + std::string(every) + "': expected a whole number of steps from 1 to 64");
       check_every_ = static_cast<std::uint32_t>(v);
     }
+    // BIODEM_GPU_PROFILE=1: where the wall time of advance() goes (profile_report(), run.log).
+    if (const char* prof = std::getenv("BIODEM_GPU_PROFILE"); prof && *prof) {
+      if (std::string(prof) != "0" && std::string(prof) != "1")
+        throw Error("BIODEM_GPU_PROFILE = '" + std::string(prof) + "': expected 0 or 1");
+      profile_.on = std::string(prof) == "1";
+    }
   }
 
   std::string device_name() const override { return name_; }
@@ -144,6 +152,7 @@ class Engine final : public DeviceEngine {
     forces_mode_ = on ? ForcesMode::entries : ForcesMode::rows;
   }
   std::uint64_t entry_force_passes() const override { return entry_passes_; }
+  std::string profile_report() const override;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
     to_host(j, rows_.j);
@@ -334,6 +343,16 @@ class Engine final : public DeviceEngine {
   template <bool Cohesion, bool Rolling>
   void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
+  /// BIODEM_GPU_PROFILE=1: the host waits for the device after each run of units, list check and
+  /// build, and adds up their wall times (a wait the step loop makes anyway at every check, so
+  /// the figures are those of a plain run to within a wait per check).
+  struct Profile {
+    bool on = false;
+    double advance_s = 0.0, units_s = 0.0, checks_s = 0.0, builds_s = 0.0;
+    std::uint64_t steps = 0, units = 0, checks = 0, builds = 0;
+  } profile_;
+  using Clock = std::chrono::steady_clock;
+  static double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
   typename System::Staging staging_;  // download()'s copies
 
  public:
@@ -771,7 +790,13 @@ inline void Engine::run_units(std::uint32_t units) {
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 3) |
                             (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
+  const auto t0 = Clock::now();
   if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
+  if (profile_.on) {
+    System::wait();
+    profile_.units_s += since(t0);
+    profile_.units += units;
+  }
 }
 
 inline void Engine::poll_settle() {
@@ -810,6 +835,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   }
   const std::uint64_t step0 = host_.step_count(), k0 = settle_host_.k;
   const double t0 = host_.time_s();
+  const auto clock0 = Clock::now();
   auto tick = [this](std::uint64_t n) {  // the host clock follows the launches (for messages)
     for (std::uint64_t q = 0; q < n; ++q) {
       host_.set_time_s(host_.time_s() + dt_);
@@ -858,12 +884,40 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   host_.set_step_count(step0);
   host_.set_time_s(t0);
   tick(r.steps);
+  if (profile_.on) {
+    System::wait();
+    profile_.advance_s += since(clock0);
+    profile_.steps += r.steps;
+  }
+  return r;
+}
+
+inline std::string Engine::profile_report() const {
+  if (!profile_.on || profile_.steps == 0) return {};
+  const double steps = static_cast<double>(profile_.steps);
+  auto fmt = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.2f", v);
+    return std::string(b);
+  };
+  const double other = profile_.advance_s - profile_.units_s - profile_.checks_s - profile_.builds_s;
+  std::string r = "GPU profile (BIODEM_GPU_PROFILE=1), us per step over " + std::to_string(profile_.steps) +
+                  " steps: " + fmt(1e6 * profile_.advance_s / steps) + " in all = step kernels " +
+                  fmt(1e6 * profile_.units_s / steps) + " (" + std::to_string(profile_.units) + " steps between checks) + list checks " +
+                  fmt(1e6 * profile_.checks_s / steps) + " (" + std::to_string(profile_.checks) + ", " +
+                  fmt(profile_.checks ? 1e6 * profile_.checks_s / static_cast<double>(profile_.checks) : 0.0) +
+                  " us each) + list builds " + fmt(1e6 * profile_.builds_s / steps) + " (" +
+                  std::to_string(profile_.builds) + ", " +
+                  fmt(profile_.builds ? 1e6 * profile_.builds_s / static_cast<double>(profile_.builds) : 0.0) +
+                  " us each) + the rest " + fmt(1e6 * other / steps) + " (steps next to a check, settle polls)";
   return r;
 }
 
 inline void Engine::check_list() {
   steps_until_check_ = check_every_;
   if (ns() == 0) return;
+  if (profile_.on) System::wait();  // (the step before it, not the check)
+  const auto t0 = Clock::now();
   const Motion m = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
                                             thrust::counting_iterator<std::uint32_t>(ns()), SphereMotion{sphere_arrays()},
                                             Motion{}, MotionMax{});
@@ -881,9 +935,19 @@ inline void Engine::check_list() {
   // skin, and check sooner than check_every_ steps when even a fresh list would not last.
   const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
   double room = half_skin - moved;
+  if (profile_.on) {
+    profile_.checks_s += since(t0);
+    ++profile_.checks;
+  }
   if (room < check_every_ * per_step) {
+    const auto t1 = Clock::now();
     build_list(&m.box);  // (positions found finite above: moved < half the skin)
     room = half_skin;
+    if (profile_.on) {
+      System::wait();
+      profile_.builds_s += since(t1);
+      ++profile_.builds;
+    }
   }
   if (per_step > 0.0)
     steps_until_check_ = static_cast<std::uint32_t>(

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -172,7 +173,7 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
 TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   for (const std::string bad : {"BIODEM_GPU_FORCES=rowz", "BIODEM_GPU_SKIN_DIAMETERS=0", "BIODEM_GPU_SKIN_DIAMETERS=2.5",
                                 "BIODEM_GPU_CHECK_EVERY=65", "BIODEM_GPU_CHECK_EVERY=0", "BIODEM_GPU_SORT=-1",
-                                "BIODEM_GPU_FUSE=2"}) {
+                                "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -185,6 +186,53 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 " + biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// BIODEM_GPU_PROFILE=1 adds one line to run.log saying where the steps' wall time went (step
+// kernels, list checks, list builds, the rest) and changes no result: the needle drum's outputs
+// and checkpoint byte-identical to a run without it; the parts add up to the whole (to the
+// rounding of the line's figures), every step is counted, and the builds timed are those the
+// list checks made (the run's device builds less the one of each upload).
+TEST(GpuRuns, ProfileLineAddsUpAndChangesNothing) {
+  const std::string plain = fresh_dir("gpu_profile_off"), prof = fresh_dir("gpu_profile_on");
+  auto r0 = run_command(biodem_exe() + " run " + kNeedles + " --out " + plain + " --device " + gpu_device());
+  ASSERT_EQ(r0.status, 0) << r0.output;
+  auto r1 = run_command("BIODEM_GPU_PROFILE=1 " + biodem_exe() + " run " + kNeedles + " --out " + prof + " --device " +
+                        gpu_device());
+  ASSERT_EQ(r1.status, 0) << r1.output;
+  expect_same_outputs(plain, prof);
+  EXPECT_EQ(slurp(plain + "/checkpoint.bin"), slurp(prof + "/checkpoint.bin"));
+  EXPECT_EQ(slurp(plain + "/run.log").find("GPU profile"), std::string::npos);
+  const std::string log = slurp(prof + "/run.log");
+  const auto at = log.find("GPU profile (BIODEM_GPU_PROFILE=1), us per step over ");
+  ASSERT_NE(at, std::string::npos) << log;
+  unsigned long long steps = 0, between = 0, checks = 0, builds = 0;
+  double all = 0, kernels = 0, check_us = 0, check_each = 0, build_us = 0, build_each = 0, rest = 0;
+  const int got = std::sscanf(log.c_str() + at,
+                              "GPU profile (BIODEM_GPU_PROFILE=1), us per step over %llu steps: %lf in all = step "
+                              "kernels %lf (%llu steps between checks) + list checks %lf (%llu, %lf us each) + list "
+                              "builds %lf (%llu, %lf us each) + the rest %lf",
+                              &steps, &all, &kernels, &between, &check_us, &checks, &check_each, &build_us, &builds,
+                              &build_each, &rest);
+  ASSERT_EQ(got, 11) << log.substr(at);
+  EXPECT_EQ(steps, 14000u);  // the case's 8,000 + 6,000 steps
+  EXPECT_GT(between, steps * 8 / 10);
+  EXPECT_LE(between, steps);
+  EXPECT_NEAR(kernels + check_us + build_us + rest, all, 0.05);
+  EXPECT_GE(rest, -0.02) << "a part timed twice";
+  // (the figures are rounded to 0.01 us: the totals agree within that times the counts)
+  EXPECT_NEAR(check_us * static_cast<double>(steps), check_each * static_cast<double>(checks),
+              0.005 * static_cast<double>(steps + checks));
+  EXPECT_NEAR(build_us * static_cast<double>(steps), build_each * static_cast<double>(builds),
+              0.005 * static_cast<double>(steps + builds));
+  EXPECT_GE(checks, steps / 10);  // at most 10 steps between two checks
+  unsigned long long device_builds = 0;
+  const auto db = log.find("device neighbour builds ");
+  ASSERT_NE(db, std::string::npos);
+  ASSERT_EQ(std::sscanf(log.c_str() + db, "device neighbour builds %llu", &device_builds), 1);
+  EXPECT_GT(builds, 0u);
+  EXPECT_LT(builds, device_builds);  // the uploads' builds are outside the steps
+  EXPECT_GE(builds + 3, device_builds);
 }
 
 // The device stores the bodies sorted by neighbour-list cell (docs/gpu.md); downloads and
