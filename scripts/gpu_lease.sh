@@ -136,5 +136,6 @@ fi
 echo; cat "$O/lease.log"; echo
 for b in bench bench_entries bench_rows bench_fmad; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
+[ -f "$O/sweep/profile.txt" ] && { echo "== profile (BIODEM_GPU_PROFILE=1)"; cat "$O/sweep/profile.txt"; }
 [ -f "$O/scaling.txt" ] && { echo "== scaling"; cat "$O/scaling_results.csv" 2>/dev/null; tail -n 12 "$O/scaling.txt"; }
 echo; sed -n '/^| check/,/^$/p' "$O/report.md" 2>/dev/null | cut -c1-220
