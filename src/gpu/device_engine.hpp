@@ -89,6 +89,10 @@ class DeviceEngine {
   /// tests and comparisons. fused_steps() counts the steps whose halves were joined so far.
   virtual void set_fused_kick(bool on) = 0;
   virtual std::uint64_t fused_steps() const = 0;
+  /// In a scene whose bodies are all single spheres, the fused steps with the entry kernels also
+  /// sum each sphere's contacts inside the body kernel (SumEntriesKickDrift: one launch fewer,
+  /// same bits); this counts those steps.
+  virtual std::uint64_t sums_in_kick_steps() const = 0;
   /// The contact forces as one thread per row entry and wall slot (PairEntries) then one per
   /// sphere summing its row and walls in order (SumEntries), or one thread per sphere walking its
   /// row and walls (Forces): the same operations in the same order, so the same bits. By default

@@ -133,6 +133,7 @@ class Engine final : public DeviceEngine {
   std::uint64_t row_widenings() const override { return widenings_; }
   std::uint32_t row_capacity() const override { return rows_.cap; }
   std::uint64_t fused_steps() const override { return fused_units_; }
+  std::uint64_t sums_in_kick_steps() const override { return summed_in_kick_; }
   void set_sort_every(std::uint32_t builds) override {
     sort_every_ = builds;
     builds_until_sort_ = builds ? 1 : 0;  // at the next build
@@ -231,8 +232,12 @@ class Engine final : public DeviceEngine {
   /// the CUDA graphs hold).
   template <class T>
   void permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch);
+  /// The force kernels' arguments; `halt` as the step kernels (null: always evaluated).
+  ContactArgs contact_args(const std::uint32_t* halt);
   /// Contact forces of every sphere; `halt` as the step kernels (null: always evaluated).
   void compute_forces(const std::uint32_t* halt);
+  /// PairEntries alone (the sums then run in SumEntriesKickDrift).
+  void launch_pair_entries(const ContactArgs& c);
   /// The two halves of a step around the list check: kick, drift and sphere update; then forces,
   /// body sums with the second half kick and, in a criterion phase, the settle update.
   void first_half();
@@ -343,6 +348,8 @@ class Engine final : public DeviceEngine {
   template <bool Cohesion, bool Rolling>
   void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
+  bool single_spheres_ = false;     // every body has one sphere (upload)
+  std::uint64_t summed_in_kick_ = 0;  // fused units whose sphere sums ran in SumEntriesKickDrift
   /// BIODEM_GPU_PROFILE=1: the host waits for the device after each run of units, list check and
   /// build, and adds up their wall times (a wait the step loop makes anyway at every check, so
   /// the figures are those of a plain run to within a wait per check).
@@ -412,6 +419,7 @@ inline void Engine::upload() {
   to_device(b_mass_, b.mass_kg);
   to_device(b_first_, b.first_sphere);
   to_device(b_count_, b.sphere_count);
+  single_spheres_ = std::all_of(b.sphere_count.begin(), b.sphere_count.end(), [](std::uint32_t c) { return c == 1; });
 
   const std::size_t n = s.size();
   // Stable sphere ids: spheres numbered body by body in stable body id order.
@@ -708,7 +716,7 @@ inline bool Engine::sort_bodies() {
   return true;
 }
 
-inline void Engine::compute_forces(const std::uint32_t* halt) {
+inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   ContactArgs c;
   c.s = sphere_arrays();
   c.rows = rows_.arrays();
@@ -728,6 +736,11 @@ inline void Engine::compute_forces(const std::uint32_t* halt) {
   c.dt = dt_;
   c.wall_rolling_lab = host_.wall_rolling_lab();
   c.halt = halt;
+  return c;
+}
+
+inline void Engine::compute_forces(const std::uint32_t* halt) {
+  const ContactArgs c = contact_args(halt);
   if (cohesion_) {
     if (rolling_) launch_forces<true, true>(c);
     else launch_forces<true, false>(c);
@@ -764,8 +777,26 @@ inline void Engine::second_half() {
 }
 
 inline void Engine::fused_unit() {
+  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()};
+  if (single_spheres_ && entries_ready()) {  // glass beads: the sums inside ReduceKickDrift
+    const ContactArgs c = contact_args(halt());
+    launch_pair_entries(c);
+    launch(nb(), SumEntriesKickDrift{c, rkd});
+    return;
+  }
   compute_forces(halt());
-  launch(nb(), ReduceKickDrift{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()});
+  launch(nb(), rkd);
+}
+
+inline void Engine::launch_pair_entries(const ContactArgs& c) {
+  const std::uint32_t n = (rows_.cap + n_walls_) * ns();
+  if (cohesion_) {
+    if (rolling_) launch(n, PairEntries<true, true>{c});
+    else launch(n, PairEntries<true, false>{c});
+  } else {
+    if (rolling_) launch(n, PairEntries<false, true>{c});
+    else launch(n, PairEntries<false, false>{c});
+  }
 }
 
 inline void Engine::run_units(std::uint32_t units) {
@@ -783,6 +814,7 @@ inline void Engine::run_units(std::uint32_t units) {
     }
   };
   if (fused) fused_units_ += units;
+  if (fused && single_spheres_ && entries_ready()) summed_in_kick_ += units;
   if (entries_ready()) entry_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.

@@ -516,6 +516,52 @@ struct ContactArgs {
     }
   }
 
+  /// Sphere a's contact sums from the entry buffers of PairEntries (SumEntries): its touching
+  /// pair entries in row order, then its touching walls in wall order, with the operations of
+  /// the row walk. The entries (and walls) are read in chunks of kChunk: every load of a chunk is
+  /// issued before the first addition, so a GPU thread waits for memory once per chunk rather
+  /// than once per entry. The additions stay in row order.
+  static constexpr std::uint32_t kChunk = 8;
+  BIODEM_HD void sum_entries(std::uint32_t a, std::uint32_t sid_a, std::uint32_t len, Vec3& f, Vec3& t,
+                             std::uint32_t& count) const {
+    for (std::uint32_t q0 = 0; q0 < len; q0 += kChunk) {
+      bool touching[kChunk], low[kChunk];
+      Vec3 fe[kChunk], te[kChunk];
+      for (std::uint32_t c = 0; c < kChunk; ++c) {
+        const std::uint32_t q = q0 + c, k = q * n + a;
+        touching[c] = false;
+        low[c] = false;
+        if (q < len) {
+          touching[c] = rows.touching[k] != 0;
+          low[c] = sid_a < rows.sid[k];
+          fe[c] = rows.entry_force[k];
+          te[c] = rows.entry_torque[k];
+        }
+      }
+      for (std::uint32_t c = 0; c < kChunk; ++c)
+        if (touching[c]) add_pair(fe[c], te[c], low[c], f, t, count);
+    }
+    for (std::uint32_t w0 = 0; w0 < n_walls; w0 += kChunk) {
+      bool touching[kChunk];
+      Vec3 fw[kChunk], tw[kChunk];
+      for (std::uint32_t c = 0; c < kChunk; ++c) {
+        const std::uint32_t w = w0 + c, slot = w * n + a;
+        touching[c] = false;
+        if (w < n_walls) {
+          touching[c] = wall_touching[slot] != 0;
+          fw[c] = rows.wall_force[slot];
+          tw[c] = rows.wall_torque[slot];
+        }
+      }
+      for (std::uint32_t c = 0; c < kChunk; ++c)
+        if (touching[c]) {
+          f += fw[c];
+          t += tw[c];
+          ++count;
+        }
+    }
+  }
+
   /// Sphere a's contact with wall w (slot w * n + a of the wall history): true when touching,
   /// with the force and torque on a; false (history reset) otherwise.
   template <bool Cohesion, bool Rolling>
@@ -590,53 +636,13 @@ struct PairEntries : ContactArgs {
 ///   the same bits.
 template <bool Cohesion, bool Rolling, bool FromEntries>
 struct SphereContacts : ContactArgs {
-  /// SumEntries reads the entries (and walls) of a sphere in chunks of this many: every load of a
-  /// chunk is issued before the first addition, so a GPU thread waits for memory once per chunk
-  /// rather than once per entry. The additions stay in row order.
-  static constexpr std::uint32_t kChunk = 8;
-
   BIODEM_HD void operator()(std::uint32_t a) const {
     if (halted(halt)) return;
     Vec3 f, t;
     std::uint32_t count = 0;
     const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
     if constexpr (FromEntries) {
-      for (std::uint32_t q0 = 0; q0 < len; q0 += kChunk) {
-        bool touching[kChunk], low[kChunk];
-        Vec3 fe[kChunk], te[kChunk];
-        for (std::uint32_t c = 0; c < kChunk; ++c) {
-          const std::uint32_t q = q0 + c, k = q * n + a;
-          touching[c] = false;
-          low[c] = false;
-          if (q < len) {
-            touching[c] = rows.touching[k] != 0;
-            low[c] = sid_a < rows.sid[k];
-            fe[c] = rows.entry_force[k];
-            te[c] = rows.entry_torque[k];
-          }
-        }
-        for (std::uint32_t c = 0; c < kChunk; ++c)
-          if (touching[c]) add_pair(fe[c], te[c], low[c], f, t, count);
-      }
-      for (std::uint32_t w0 = 0; w0 < n_walls; w0 += kChunk) {
-        bool touching[kChunk];
-        Vec3 fw[kChunk], tw[kChunk];
-        for (std::uint32_t c = 0; c < kChunk; ++c) {
-          const std::uint32_t w = w0 + c, slot = w * n + a;
-          touching[c] = false;
-          if (w < n_walls) {
-            touching[c] = wall_touching[slot] != 0;
-            fw[c] = rows.wall_force[slot];
-            tw[c] = rows.wall_torque[slot];
-          }
-        }
-        for (std::uint32_t c = 0; c < kChunk; ++c)
-          if (touching[c]) {
-            f += fw[c];
-            t += tw[c];
-            ++count;
-          }
-      }
+      sum_entries(a, sid_a, len, f, t, count);
     } else {
       for (std::uint32_t q = 0; q < len; ++q) {
         Vec3 fl, ta;
@@ -729,6 +735,27 @@ struct ReduceKickDrift {
     b.ang_momentum[k] = l;
     b.orientation[k] = q;
     spheres_of_body(b, s, k);
+  }
+};
+
+/// In a scene of single-sphere bodies (glass beads), SumEntries of body k's sphere and
+/// ReduceKickDrift of body k in one thread: one launch and one pass over the spheres fewer per
+/// step. The sphere's sums are stored, then ReduceKickDrift reads them back, so the same
+/// operations in the same order as the two kernels: the same bits. Only for bodies of one sphere
+/// (the engine launches it only when every body has one).
+struct SumEntriesKickDrift {
+  ContactArgs c;
+  ReduceKickDrift rkd;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(rkd.halt)) return;
+    const std::uint32_t a = rkd.b.first_sphere[k];
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    c.sum_entries(a, c.s.sid[a], c.rows.length[a], f, t, count);
+    c.s.force[a] = f;
+    c.s.torque[a] = t;
+    c.s.contacts[a] = count;
+    rkd(k);
   }
 };
 

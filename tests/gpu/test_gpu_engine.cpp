@@ -189,7 +189,8 @@ namespace {
 
 /// A random packing of spheres (two sizes) and needles in a turning cylinder with a periodic
 /// axis: every slot of the contact model and every branch of the neighbour list.
-std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true, bool gravity = true) {
+std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true, bool gravity = true,
+                                         bool spheres_only = false) {
   constexpr double kRc = 20e-3, kLz = 12e-3, kSpacing = 3e-3;
   config::Shape needle;
   needle.name = "needle";
@@ -220,7 +221,7 @@ std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true
       for (int l = 0; l < static_cast<int>(kLz / kSpacing); ++l) {
         const Vec3 x{i * kSpacing, j * kSpacing, (l + 0.5) * kSpacing};
         if (std::hypot(x.x, x.y) > kRc - 2.5e-3) continue;
-        const auto shape = static_cast<std::uint32_t>(gen() % 3);
+        const auto shape = static_cast<std::uint32_t>(gen() % (spheres_only ? 2 : 3));
         const Quat q = normalized(Quat{uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5});
         const Vec3 v{uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5};
         const Vec3 w{200 * (uniform(gen) - 0.5), 200 * (uniform(gen) - 0.5), 200 * (uniform(gen) - 0.5)};
@@ -697,6 +698,35 @@ TEST(GpuEngine, FusedReduceKickDriftGivesTheBitsOfTheSeparateKernels) {
   EXPECT_EQ(ea->list_builds(), eb->list_builds());
   EXPECT_GT(ea->fused_steps(), steps / 2);
   EXPECT_EQ(eb->fused_steps(), 0u);
+  EXPECT_EQ(ea->sums_in_kick_steps(), 0u);  // the packing has needles: the sums stay in SumEntries
+}
+
+// In a scene of single-sphere bodies the fused steps also sum each sphere's contacts inside the
+// body kernel (SumEntriesKickDrift, one launch fewer per step). The packing with spheres only
+// (two sizes; cohesion, rolling friction, a turning cylinder, a periodic axis), stepped in runs
+// across list checks, rebuilds and a criterion phase: bit-identical after every run to the
+// engine launching SumEntries, ReduceKick and KickDriftSpheres apart, and to the row walk.
+TEST(GpuEngine, SumsInsideTheKickGiveTheBitsOfSumEntries) {
+  for (const bool entries_b : {true, false}) {
+    auto a = packing(1.2e-3, true, true, true), b = packing(1.2e-3, true, true, true);
+    auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+    ea->set_fused_kick(true);
+    ea->set_entry_forces(true);
+    eb->set_fused_kick(false);
+    eb->set_entry_forces(entries_b);
+    ea->upload();
+    eb->upload();
+    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+    std::printf("[measured] sums in the body kernel vs %s: %llu steps, %llu with the sums in the body kernel, "
+                "%llu list builds; bit-identical after every run\n",
+                entries_b ? "SumEntries + ReduceKick + KickDriftSpheres" : "the row walk",
+                static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->sums_in_kick_steps()),
+                static_cast<unsigned long long>(ea->list_builds()));
+    EXPECT_GT(ea->sums_in_kick_steps(), steps / 2);
+    EXPECT_EQ(ea->sums_in_kick_steps(), ea->fused_steps());
+    EXPECT_EQ(eb->sums_in_kick_steps(), 0u);
+    EXPECT_GT(ea->list_builds(), 5u);
+  }
 }
 
 // The contact forces as one thread per row entry and wall slot (PairEntries) and a per-sphere sum
