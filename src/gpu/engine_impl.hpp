@@ -150,6 +150,7 @@ class Engine final : public DeviceEngine {
   }
   void set_entry_forces(bool on) override {
     invalidate_graphs();
+    if (rows_.length.size() == ns() && rows_.mirror.size() == rows_.j.size()) mirror_history();
     forces_mode_ = on ? ForcesMode::entries : ForcesMode::rows;
   }
   std::uint64_t entry_force_passes() const override { return entry_passes_; }
@@ -196,7 +197,7 @@ class Engine final : public DeviceEngine {
             raw<std::uint32_t>(s_sid_), raw<std::uint32_t>(s_contacts_)};
   }
   struct Rows {
-    vec<std::uint32_t> j, sid;
+    vec<std::uint32_t> j, sid, mirror;
     vec<std::int32_t> image;
     vec<std::uint8_t> touching;
     vec<contact::ContactHistory> history;
@@ -208,14 +209,17 @@ class Engine final : public DeviceEngine {
       generation = gen;
       j.assign(n * c, 0u);
       sid.assign(n * c, 0u);
+      mirror.assign(n * c, 0u);
       image.assign(n * c, 0);
       touching.assign(n * c, 0);
       history.assign(n * c, contact::ContactHistory{});
       length.assign(n, 0u);
     }
     RowArrays arrays() {
-      return {raw<std::uint32_t>(j), raw<std::uint32_t>(sid), raw<std::int32_t>(image), raw<std::uint8_t>(touching),
-              raw<contact::ContactHistory>(history), raw<std::uint32_t>(length), cap, nullptr, nullptr, nullptr, nullptr};
+      return {raw<std::uint32_t>(j),      raw<std::uint32_t>(sid),    raw<std::int32_t>(image),
+              raw<std::uint8_t>(touching), raw<contact::ContactHistory>(history), raw<std::uint32_t>(length),
+              cap,                         raw<std::uint32_t>(mirror), nullptr,
+              nullptr,                     nullptr,                    nullptr};
     }
   };
 
@@ -340,6 +344,12 @@ class Engine final : public DeviceEngine {
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
+  vec<std::uint32_t> mirror_missing_ = vec<std::uint32_t>(1, 0u);  // set by MirrorEntries if a pair's other entry is missing (read at downloads)
+  /// Both entries of every touching pair hold its history again (MirrorHistory), after steps of
+  /// PairEntries, which advance it in the lower-id side's entry only.
+  void mirror_history() {
+    launch(rows_.cap * ns(), MirrorHistory{rows_.arrays(), raw<std::uint32_t>(s_sid_), ns()});
+  }
   /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
   bool entries_ready() const {
     return use_entry_kernels() && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
@@ -501,6 +511,7 @@ inline void Engine::upload() {
     to_device(rows_.touching, touch);
     to_device(rows_.history, hist);
     rows_.image.assign(n * cap, 0);
+    rows_.mirror.assign(n * cap, 0u);
   }
 
   // Wall history: host sparse table (per sphere: candidate walls) -> device [wall * n + sphere].
@@ -647,6 +658,8 @@ inline void Engine::build_list(const Box* known_box) {
     cap = longest + longest / 4 + 1;
     ++widenings_;
   }
+  // Each pair's other entry, for PairEntries (which evaluates a pair once, from its lower-id side).
+  launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
   if (use_entry_kernels() && !entries_ready()) {
@@ -1022,6 +1035,8 @@ inline void Engine::download(bool history) {
       std::memcpy(static_cast<void*>(&h[to[d]]), src + d * sizeof(h[0]), sizeof(h[0]));
   };
   const std::size_t n_b = nb(), n = ns();
+  if (history) mirror_history();  // (queued before the copies, on the same stream)
+  const std::size_t i_missing = add(mirror_missing_);
   const std::size_t i_pos = add(b_pos_), i_vel = add(b_vel_), i_omega = add(b_omega_), i_l = add(b_l_), i_q = add(b_q_),
                     i_force = add(b_force_), i_torque = add(b_torque_), i_sforce = add(s_force_),
                     i_storque = add(s_torque_), i_contacts = add(s_contacts_), i_bhost = add(b_host_),
@@ -1036,6 +1051,8 @@ inline void Engine::download(bool history) {
     i_wt = add(wall_touching_);
   }
   st.run();
+  if (*static_cast<const std::uint32_t*>(st.host(i_missing)))
+    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only");
   std::vector<std::uint32_t> b_host, s_host;  // host index of each device body and sphere
   take(b_host, i_bhost, n_b);
   take(s_host, i_shost, n);

@@ -58,6 +58,7 @@ struct RowArrays {
   contact::ContactHistory* history;  // from the side of the pair's lower stable id
   std::uint32_t* length;
   std::uint32_t cap;
+  std::uint32_t* mirror;  // of an entry from its pair's lower-id side: the entry of the other side (MirrorEntries)
   Vec3* entry_force;   // PairEntries -> SumEntries: force on the pair's lower-id sphere
   Vec3* entry_torque;  // and torque on the row's sphere, per touching entry
   Vec3* wall_force;    // and per touching wall contact [wall * n + sphere]
@@ -404,6 +405,51 @@ struct BuildRows {
   }
 };
 
+/// After a list build, one thread per entry k = q * n + a (q < rows.cap): for an entry from its
+/// pair's lower-id side, the entry of the other side (b's row holds a: its position found by a
+/// binary search of b's row, which is sorted by stable id), into rows.mirror[k]. The list is
+/// symmetric (the cut-off test gives the same bits from both sides), so it is always found; if
+/// it were not, the entry names itself and `missing` counts it (the host then stops the run).
+struct MirrorEntries {
+  RowArrays rows;
+  const std::uint32_t* sid;  // stable id of each sphere
+  std::uint32_t n;
+  std::uint32_t* missing;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    const std::uint32_t a = k % n, q = k / n;
+    if (q >= rows.length[a]) return;
+    const std::uint32_t sid_a = sid[a];
+    if (!(sid_a < rows.sid[k])) return;
+    const std::uint32_t b = rows.j[k];
+    std::uint32_t lo = 0, hi = rows.length[b];  // the first entry of b's row with stable id >= sid_a
+    while (lo < hi) {
+      const std::uint32_t mid = (lo + hi) / 2;
+      if (rows.sid[mid * n + b] < sid_a) lo = mid + 1;
+      else hi = mid;
+    }
+    if (lo < rows.length[b] && rows.sid[lo * n + b] == sid_a) {
+      rows.mirror[k] = lo * n + b;
+    } else {
+      rows.mirror[k] = k;
+      *missing = 1;
+    }
+  }
+};
+
+/// The history of each pair, advanced by PairEntries in its lower-id side's entry, copied to the
+/// other side's entry (one thread per entry k = q * n + a), so that both rows hold it again as
+/// the row walk keeps them (before a download of the rows, or a switch to Forces).
+struct MirrorHistory {
+  RowArrays rows;
+  const std::uint32_t* sid;
+  std::uint32_t n;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    const std::uint32_t a = k % n, q = k / n;
+    if (q >= rows.length[a] || !(sid[a] < rows.sid[k])) return;
+    rows.history[rows.mirror[k]] = rows.history[k];
+  }
+};
+
 /// The bodies' storage order on the device (docs/gpu.md, "Bodies sorted by cell"): after the
 /// bodies were reordered (new slot d holds the body that was at slot order[d]; counts and the
 /// new first spheres already in the new order), the source of every sphere of the new order
@@ -468,7 +514,7 @@ struct ContactArgs {
   /// (`torque_a`) and whether a is the lower-id sphere; false (history reset) otherwise.
   template <bool Cohesion, bool Rolling>
   BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
-                            bool& a_low) const {
+                            bool& a_low, Vec3* torque_b = nullptr) const {
     const std::uint32_t b = rows.j[k];
     a_low = sid_a < rows.sid[k];
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
@@ -499,6 +545,7 @@ struct ContactArgs {
     rows.touching[k] = 1;
     force_low = out.force_i;
     torque_a = a_low ? out.torque_i : out.torque_j;
+    if (torque_b) *torque_b = a_low ? out.torque_j : out.torque_i;
     return true;
   }
 
@@ -595,11 +642,17 @@ struct ContactArgs {
 
 /// Every contact of the step at once, one thread per entry k = q * n + a over (rows.cap +
 /// n_walls) * n indices: q < rows.cap is entry q of sphere a's row (entries past the row's length
-/// do nothing), q = rows.cap + w is a's contact with wall w. A touching pair entry's force on the
-/// lower-id sphere and torque on a go to rows.entry_force and rows.entry_torque, a touching wall
-/// contact's force and torque to rows.wall_force and rows.wall_torque [w * n + a], for
-/// SumEntries. The arithmetic of Forces' loop bodies, so the same bits; a sphere's contacts no
-/// longer wait for one another (on a GPU the step's longest chain is one contact, not one row).
+/// do nothing), q = rows.cap + w is a's contact with wall w. Each pair is evaluated once, by the
+/// thread of its entry in the row of its lower-id sphere (the entry of the other side does
+/// nothing): it writes the pair's touching flag to both entries and, when touching, the force on
+/// the lower-id sphere with each side's torque to both entries' slots of rows.entry_force and
+/// rows.entry_torque (the other side's entry through rows.mirror), for SumEntries. A touching
+/// wall contact's force and torque go to rows.wall_force and rows.wall_torque [w * n + a]. The
+/// arithmetic of Forces' loop bodies, so the same bits (Forces evaluates each pair in both rows,
+/// with the same operations); a sphere's contacts no longer wait for one another (on a GPU the
+/// step's longest chain is one contact, not one row). The pair's history is advanced in the
+/// lower-id side's entry only; MirrorHistory copies it to the other side's entry when the whole
+/// rows are read (download, a switch to Forces).
 template <bool Cohesion, bool Rolling>
 struct PairEntries : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t k) const {
@@ -615,11 +668,18 @@ struct PairEntries : ContactArgs {
       return;
     }
     if (q >= rows.length[a]) return;
-    Vec3 fl, ta;
-    bool a_low = false;
-    if (pair_entry<Cohesion, Rolling>(a, s.sid[a], k, fl, ta, a_low)) {
+    const std::uint32_t sid_a = s.sid[a];
+    if (!(sid_a < rows.sid[k])) return;  // the pair's higher-id side: written by the other entry
+    const std::uint32_t m = rows.mirror[k];
+    Vec3 fl, ta, tb;
+    bool a_low = true;
+    const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
+    rows.touching[m] = touching ? 1 : 0;
+    if (touching) {
       rows.entry_force[k] = fl;
       rows.entry_torque[k] = ta;
+      rows.entry_force[m] = fl;
+      rows.entry_torque[m] = tb;
     }
   }
 };

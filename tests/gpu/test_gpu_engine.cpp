@@ -701,6 +701,38 @@ TEST(GpuEngine, FusedReduceKickDriftGivesTheBitsOfTheSeparateKernels) {
   EXPECT_EQ(ea->sums_in_kick_steps(), 0u);  // the packing has needles: the sums stay in SumEntries
 }
 
+// PairEntries evaluates each pair once, from its lower-id side, and advances the pair's history
+// in that side's entry only; the row walk (Forces) reads both sides' entries. Switching from the
+// entry kernels to the row walk in the middle of a run (and back) hands the history over
+// (MirrorHistory): the packing stepped with entries, rows, entries and rows again in turn is
+// bit-identical, after each row-walk run, to the packing stepped with the row walk throughout
+// (compared there only, so that nothing but the switch stands between an entry run and the row
+// walk). It fails when the history is not copied to the other side's entry (checked).
+TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
+  auto a = packing(0.5e-3), b = packing(0.5e-3);
+  auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+  ea->set_entry_forces(true);
+  eb->set_entry_forces(false);
+  ea->upload();
+  eb->upload();
+  const std::uint64_t runs[] = {151, 97, 203, 64};
+  std::uint64_t steps = 0;
+  for (std::size_t r = 0; r < std::size(runs); ++r) {
+    ea->set_entry_forces(r % 2 == 0);
+    EXPECT_EQ(ea->advance(runs[r]).steps, runs[r]);
+    EXPECT_EQ(eb->advance(runs[r]).steps, runs[r]);
+    steps += runs[r];
+    if (r % 2 == 0) continue;  // compared after the row-walk runs: nothing but the switch between
+    ea->download(true);
+    eb->download(true);
+    const std::string diff = first_difference(*a, *b);
+    EXPECT_EQ(diff, "") << "after run " << r << " (" << steps << " steps)";
+    if (!diff.empty()) break;
+  }
+  EXPECT_EQ(ea->entry_force_passes(), runs[0] + runs[2]);
+  EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
+}
+
 // In a scene of single-sphere bodies the fused steps also sum each sphere's contacts inside the
 // body kernel (SumEntriesKickDrift, one launch fewer per step). The packing with spheres only
 // (two sizes; cohesion, rolling friction, a turning cylinder, a periodic axis), stepped in runs
