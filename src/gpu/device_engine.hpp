@@ -14,10 +14,11 @@
 //
 // Results do not depend on the storage order of spheres or on when the neighbour list is
 // rebuilt: every sphere sums its pair contacts in the order of its neighbours' stable ids, then
-// its walls in wall order, and every pair is evaluated from the side of its lower stable id by
-// both spheres' threads (identical arithmetic, so the two copies of the pair's history in the
-// full neighbour list stay bit-identical and the two forces are exact opposites). A run resumed
-// on the same device and build therefore continues bit for bit.
+// its walls in wall order, and every pair is evaluated from the side of its lower stable id
+// (by both spheres' threads in the row walk, with identical arithmetic, so the two copies of the
+// pair's history in the full neighbour list stay bit-identical and the two forces are exact
+// opposites; once, for both entries, by the entry kernels). A run resumed on the same device and
+// build therefore continues bit for bit.
 #pragma once
 #include <cstdint>
 #include <memory>
