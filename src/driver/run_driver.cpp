@@ -280,6 +280,7 @@ RunSummary Runner::run() {
   else
     log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
          << "\n";
+  if (dev_) log_ << "GPU contact kernels: " << dev_->contact_kernels() << "\n";
   if (dev_ && !dev_->profile_report().empty()) log_ << dev_->profile_report() << "\n";
   log_.flush();
   std::ostringstream msg;

@@ -97,10 +97,16 @@ class DeviceEngine {
   /// The contact forces as one thread per row entry and wall slot (PairEntries) then one per
   /// sphere summing its row and walls in order (SumEntries), or one thread per sphere walking its
   /// row and walls (Forces): the same operations in the same order, so the same bits. By default
-  /// chosen by the sphere count (entries below 15,000 spheres, docs/gpu.md section 4);
-  /// BIODEM_GPU_FORCES=entries|rows|auto or this switch for tests and comparisons.
+  /// timed on a GPU and chosen by the sphere count on CPU threads (entries below 15,000 spheres,
+  /// docs/gpu.md section 4); BIODEM_GPU_FORCES=entries|rows|timed|auto or this switch for tests
+  /// and comparisons.
   /// entry_force_passes() counts the steps whose forces the entry kernels evaluated.
   virtual void set_entry_forces(bool on) = 0;
+  /// Which contact kernels run and why (run.log): set by a switch, by the sphere count, or timed
+  /// (BIODEM_GPU_FORCES=timed, and auto on a GPU: after each upload the first runs of steps
+  /// between list checks alternate the two sets, each timed on the device, and the faster runs
+  /// on; the same bits either way).
+  virtual std::string contact_kernels() const = 0;
   virtual std::uint64_t entry_force_passes() const = 0;
   /// With BIODEM_GPU_PROFILE=1: one line saying where the wall time of the steps went (step
   /// kernels between list checks, list checks, list builds, the rest), for run.log; empty

@@ -6,6 +6,7 @@
 #include <thrust/system/cuda/execution_policy.h>
 #include <thrust/system/cuda/vector.h>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -20,8 +21,13 @@
 
 namespace biodem::gpu::cuda_device {
 
+/// The largest block of the one-index kernels (BIODEM_GPU_BLOCK's largest value): the compiler
+/// keeps every kernel within the registers that allow it (without the bound the per-sphere sums
+/// took ~140 registers on sm_90, and a block of 512 could not launch).
+inline constexpr int kMostThreadsPerBlock = 512;
+
 template <class F>
-__global__ void for_each_index(std::uint32_t n, F f) {
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_index(std::uint32_t n, F f) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) f(i);
 }
@@ -74,10 +80,15 @@ inline void check_cuda(const char* where) {
 }
 
 /// The stream of every kernel, Thrust algorithm and graph of the engine: created once, blocking
-/// (cudaStreamDefault), so the copies that Thrust's vectors make on the legacy default stream
-/// stay ordered with it; a non-default stream because CUDA graphs cannot be captured on the
-/// legacy one. If it cannot be created, the legacy stream (graphs then fail to capture and the
-/// engine launches plainly).
+/// (cudaStreamDefault), so the copies, fills, resizes and frees that Thrust's vectors make on the
+/// legacy default stream stay ordered with it; a non-default stream because CUDA graphs cannot be
+/// captured on the legacy one. If it cannot be created, the legacy stream (graphs then fail to
+/// capture and the engine launches plainly). The list build queues its sorts, scans and copies
+/// without a wait (System::queue): that is safe only because of this ordering, so a build with
+/// per-thread default streams, where the legacy stream's ordering does not hold, is refused.
+#ifdef CUDA_API_PER_THREAD_DEFAULT_STREAM
+#error "the GPU engine relies on the legacy default stream's ordering (see engine_stream)"
+#endif
 inline cudaStream_t engine_stream() {
   static const cudaStream_t s = [] {
     cudaStream_t x = nullptr;
@@ -246,6 +257,44 @@ class Staging {
   std::vector<char> pageable_;
 };
 
+/// Device time of the launches between start() and stop() on the engine's stream (CUDA events;
+/// stop() waits for them). If events cannot be created, the host's clock after a wait.
+class Timer {
+ public:
+  Timer() {
+    if (cudaEventCreate(&a_) != cudaSuccess || cudaEventCreate(&b_) != cudaSuccess) {
+      (void)cudaGetLastError();
+      a_ = b_ = nullptr;
+    }
+  }
+  Timer(const Timer&) = delete;
+  Timer& operator=(const Timer&) = delete;
+  ~Timer() {
+    if (a_) (void)cudaEventDestroy(a_);  // errors ignored: the context may be gone
+    if (b_) (void)cudaEventDestroy(b_);
+  }
+  void start() {
+    if (a_) (void)cudaEventRecord(a_, engine_stream());
+    else t0_ = std::chrono::steady_clock::now();
+  }
+  double stop() {
+    if (!a_) {
+      (void)cudaStreamSynchronize(engine_stream());
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    }
+    float ms = 0.0f;
+    if (cudaEventRecord(b_, engine_stream()) != cudaSuccess || cudaEventSynchronize(b_) != cudaSuccess ||
+        cudaEventElapsedTime(&ms, a_, b_) != cudaSuccess)
+      throw Error(std::string("GPU engine: CUDA error while timing the contact kernels: ") +
+                  cudaGetErrorString(cudaGetLastError()));
+    return 1e-3 * static_cast<double>(ms);
+  }
+
+ private:
+  cudaEvent_t a_ = nullptr, b_ = nullptr;
+  std::chrono::steady_clock::time_point t0_;
+};
+
 /// Threads per block of the one-index-per-thread kernels (System::launch): 128 unless
 /// BIODEM_GPU_BLOCK says 32, 64, 128, 256 or 512 (make_engine reads it; docs/gpu.md section 4).
 inline std::uint32_t& launch_block() {
@@ -266,8 +315,8 @@ struct System {
     const cudaError_t e = cudaStreamSynchronize(engine_stream());
     if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error: ") + cudaGetErrorString(e));
   }
-  /// One thread per index, launch_block() per block (the force kernel uses ~96 registers); no
-  /// host wait.
+  /// One thread per index, launch_block() per block (for_each_index is compiled for blocks of up
+  /// to kMostThreadsPerBlock); no host wait.
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     const std::uint32_t block = launch_block();
@@ -288,6 +337,9 @@ struct System {
   }
   using Graphs = cuda_device::Graphs;
   using Staging = cuda_device::Staging;
+  /// BIODEM_GPU_FORCES=auto times the two contact kernel sets on the device (Engine::Tuning).
+  static constexpr bool kTimedChoice = true;
+  using Timer = cuda_device::Timer;
 };
 
 }  // namespace biodem::gpu::cuda_device

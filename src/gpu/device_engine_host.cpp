@@ -7,6 +7,7 @@
 #include <thrust/system/omp/execution_policy.h>
 #include <thrust/system/omp/vector.h>
 
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -28,6 +29,17 @@ struct System {
   static auto queue() { return thrust::cpp::par; }
   /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
   static void wait() {}
+  /// BIODEM_GPU_FORCES=auto picks the contact kernels by the sphere count here (timing them on
+  /// CPU threads would say nothing of a GPU); =timed times them with this clock.
+  static constexpr bool kTimedChoice = false;
+  class Timer {
+   public:
+    void start() { t0_ = std::chrono::steady_clock::now(); }
+    double stop() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+
+   private:
+    std::chrono::steady_clock::time_point t0_;
+  };
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     if (n >= kParallelThreshold)

@@ -62,11 +62,12 @@ inline constexpr std::size_t kMaxDeviceWalls = 16;
 /// emulated on the quick drums: one build interval puts 0.3-3 % of adjacent slots out of cell
 /// order; every 4th build keeps that at 0.8-6 % for a quarter of the sorting.
 inline constexpr std::uint32_t kSortEvery = 4;
-/// Below this many spheres the pair and wall contacts run as one thread per entry (PairEntries,
-/// SumEntries), from it one thread per sphere (Forces); BIODEM_GPU_FORCES overrides. Measured on
-/// an H100 (2026-11-26, docs/gpu.md section 4) with the walls still summed serially in
-/// SumEntries: entries 24.4 vs rows 33.2 us/step at 4,948 spheres, 50.7 vs 47.8 at 19,791,
-/// 44.5 vs 37.0 at 39,366. The walls have since moved into the entry pass (not yet measured).
+/// On CPU threads (where BIODEM_GPU_FORCES=auto does not time the kernels, Tuning), below this
+/// many spheres the pair and wall contacts run as one thread per entry (PairEntries, SumEntries),
+/// from it one thread per sphere (Forces). From the H100 figures of 2026-11-26 (docs/gpu.md
+/// section 4), taken with earlier versions of the entry kernels: entries 24.4 vs rows 33.2
+/// us/step at 4,948 spheres, 50.7 vs 47.8 at 19,791, 44.5 vs 37.0 at 39,366. On a GPU the two
+/// sets are timed instead.
 inline constexpr std::uint32_t kEntryForcesBelow = 15000;
 
 class Engine final : public DeviceEngine {
@@ -91,14 +92,18 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_SORT = '" + std::string(sort) + "': expected a whole number of list builds (0: never)");
       sort_every_ = static_cast<std::uint32_t>(std::min<unsigned long>(v, 1u << 30));
     }
-    // BIODEM_GPU_FORCES=entries|rows|auto: the entry kernels (PairEntries, SumEntries), one
-    // thread per sphere walking its row (Forces), or by the sphere count (kEntryForcesBelow).
-    // The same bits whichever runs.
+    // BIODEM_GPU_FORCES=entries|rows|timed|auto: the entry kernels (PairEntries, SumEntries),
+    // one thread per sphere walking its row (Forces), the faster of the two as timed over the
+    // first steps after each upload (Tuning), or auto: timed on a GPU, by the sphere count
+    // (kEntryForcesBelow) on CPU threads. The same bits whichever runs.
     if (const char* forces = std::getenv("BIODEM_GPU_FORCES"); forces && *forces) {
       const std::string v(forces);
-      if (v != "rows" && v != "entries" && v != "auto")
-        throw Error("BIODEM_GPU_FORCES = '" + v + "': expected entries, rows or auto");
-      forces_mode_ = v == "entries" ? ForcesMode::entries : v == "rows" ? ForcesMode::rows : ForcesMode::automatic;
+      if (v != "rows" && v != "entries" && v != "timed" && v != "auto")
+        throw Error("BIODEM_GPU_FORCES = '" + v + "': expected entries, rows, timed or auto");
+      forces_mode_ = v == "entries" ? ForcesMode::entries
+                     : v == "rows"  ? ForcesMode::rows
+                     : v == "timed" ? ForcesMode::timed
+                                    : ForcesMode::automatic;
     }
     // BIODEM_GPU_SKIN_DIAMETERS=F (0 < F <= 2): the device list's skin is F times the smallest
     // sphere diameter instead of the case's skin (fewer rebuilds for longer rows; for sweeps:
@@ -155,6 +160,27 @@ class Engine final : public DeviceEngine {
   }
   std::uint64_t entry_force_passes() const override { return entry_passes_; }
   std::string profile_report() const override;
+  std::string contact_kernels() const override {
+    auto us = [](double seconds) {
+      char b[32];
+      std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
+      return std::string(b);
+    };
+    const std::string set = use_entry_kernels() ? "per-contact (PairEntries, SumEntries)" : "per-sphere row walk (Forces)";
+    switch (forces_mode_) {
+      case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";
+      case ForcesMode::rows: return set + ", set by BIODEM_GPU_FORCES=rows or a test";
+      default: break;
+    }
+    if (!timed_choice())
+      return set + ", by the sphere count (" + (use_entry_kernels() ? "below " : "at least ") +
+             std::to_string(kEntryForcesBelow) + ")";
+    if (tuning_under_way()) return set + " for now: the timing of both sets is under way";
+    return set + ", the faster when both were timed over the first " + std::to_string(tuning_.steps) +
+           " steps after the last upload (median of " + std::to_string(kTuneIntervals / 2) +
+           " runs each): per-contact " + us(tuning_.median[1]) + " us/step, row walk " + us(tuning_.median[0]) +
+           " us/step (" + std::to_string(tuning_.uploads) + " choice(s) in the run)";
+  }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
     to_host(j, rows_.j);
@@ -335,26 +361,57 @@ class Engine final : public DeviceEngine {
   SettleState settle_host_;  // as last read from the device
   typename System::Graphs graphs_;
   bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
-  enum class ForcesMode { automatic, entries, rows };
+  enum class ForcesMode { automatic, entries, rows, timed };
   ForcesMode forces_mode_ = ForcesMode::automatic;
+  /// The choice of the contact kernels by timing (BIODEM_GPU_FORCES=timed, and auto on a GPU):
+  /// after each upload the first kTuneIntervals runs of steps between list checks alternate the
+  /// two kernel sets (entries first), each run timed on the device (System::Timer); then the set
+  /// with the lower median time per step runs until the next upload (the median, so that one
+  /// run slowed by something else does not decide). Both sets give the same bits, so the choice
+  /// changes no result.
+  static constexpr std::uint32_t kTuneIntervals = 8;
+  struct Tuning {
+    std::uint32_t intervals = 0;             // timed so far since the upload
+    double per_step[kTuneIntervals] = {};    // seconds per step of each (even: entries, odd: row walk)
+    std::uint64_t steps = 0;
+    double median[2] = {0.0, 0.0};           // [row walk, entries], once all are timed
+    bool entries = true;                     // the choice, once all are timed
+    std::uint32_t uploads = 0;               // choices made (one per upload that got that far)
+  } tuning_;
+  typename System::Timer timer_;
+  bool timed_choice() const {
+    return forces_mode_ == ForcesMode::timed || (forces_mode_ == ForcesMode::automatic && System::kTimedChoice);
+  }
+  bool tuning_under_way() const { return timed_choice() && tuning_.intervals < kTuneIntervals; }
   /// PairEntries + SumEntries instead of Forces.
   bool use_entry_kernels() const {
-    return forces_mode_ == ForcesMode::entries || (forces_mode_ == ForcesMode::automatic && ns() < kEntryForcesBelow);
+    switch (forces_mode_) {
+      case ForcesMode::entries: return true;
+      case ForcesMode::rows: return false;
+      default: break;
+    }
+    if (!timed_choice()) return ns() < kEntryForcesBelow;
+    return tuning_under_way() ? tuning_.intervals % 2 == 0 : tuning_.entries;
   }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   vec<std::uint32_t> mirror_missing_ = vec<std::uint32_t>(1, 0u);  // set by MirrorEntries if a pair's other entry is missing (read at downloads)
+  [[noreturn]] static void throw_unmirrored() {
+    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only");
+  }
   /// Both entries of every touching pair hold its history again (MirrorHistory), after steps of
   /// PairEntries, which advance it in the lower-id side's entry only.
   void mirror_history() {
     launch(rows_.cap * ns(), MirrorHistory{rows_.arrays(), raw<std::uint32_t>(s_sid_), ns()});
   }
-  /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
-  bool entries_ready() const {
-    return use_entry_kernels() && entry_force_.size() >= static_cast<std::size_t>(rows_.cap) * ns() &&
+  /// The entry kernels' buffers fit rows of `cap` and the walls.
+  bool entries_ready_for(std::uint32_t cap) const {
+    return entry_force_.size() >= static_cast<std::size_t>(cap) * ns() &&
            wall_force_.size() >= static_cast<std::size_t>(n_walls_) * ns();
   }
+  /// The entry kernels are on and their buffers fit the rows and walls (else Forces runs).
+  bool entries_ready() const { return use_entry_kernels() && entries_ready_for(rows_.cap); }
   template <bool Cohesion, bool Rolling>
   void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
@@ -429,6 +486,12 @@ inline void Engine::upload() {
   to_device(b_mass_, b.mass_kg);
   to_device(b_first_, b.first_sphere);
   to_device(b_count_, b.sphere_count);
+  mirror_missing_[0] = 0u;
+  {
+    const std::uint32_t choices = tuning_.uploads;
+    tuning_ = Tuning{};
+    tuning_.uploads = choices;
+  }
   single_spheres_ = std::all_of(b.sphere_count.begin(), b.sphere_count.end(), [](std::uint32_t c) { return c == 1; });
 
   const std::size_t n = s.size();
@@ -662,7 +725,7 @@ inline void Engine::build_list(const Box* known_box) {
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if (use_entry_kernels() && !entries_ready()) {
+  if ((use_entry_kernels() || timed_choice()) && !entries_ready_for(rows_.cap)) {
     entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
     entry_torque_.resize(entry_force_.size());
     wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
@@ -826,21 +889,41 @@ inline void Engine::run_units(std::uint32_t units) {
       }
     }
   };
+  const bool entries = entries_ready();
   if (fused) fused_units_ += units;
-  if (fused && single_spheres_ && entries_ready()) summed_in_kick_ += units;
-  if (entries_ready()) entry_passes_ += units;
+  if (fused && single_spheres_ && entries) summed_in_kick_ += units;
+  if (entries) entry_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
-  const std::uint64_t key = (rows_.generation << 16) | (static_cast<std::uint64_t>(units) << 3) |
-                            (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) | (criterion_.translational ? 1u : 0u);
+  const std::uint64_t key = (rows_.generation << 16) | (entries ? 1u << 12 : 0u) |
+                            (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
+                            (criterion_.translational ? 1u : 0u);
+  const bool timing = tuning_under_way();
+  if (timing) timer_.start();
   const auto t0 = Clock::now();
   if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
   if (profile_.on) {
     System::wait();
     profile_.units_s += since(t0);
     profile_.units += units;
+  }
+  if (timing) {
+    tuning_.per_step[tuning_.intervals++] = timer_.stop() / units;
+    tuning_.steps += units;
+    if (tuning_.intervals == kTuneIntervals) {
+      for (int set = 0; set < 2; ++set) {  // set 1 (entries) ran the even runs, set 0 the odd
+        std::vector<double> t;
+        for (std::uint32_t r = set == 1 ? 0 : 1; r < kTuneIntervals; r += 2) t.push_back(tuning_.per_step[r]);
+        std::sort(t.begin(), t.end());
+        tuning_.median[set] = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
+      }
+      tuning_.entries = tuning_.median[1] <= tuning_.median[0];
+      ++tuning_.uploads;
+    }
+    // The row walk reads both entries of a pair: after entry steps, hand it the history.
+    if (entries && !entries_ready()) mirror_history();
   }
 }
 
@@ -964,8 +1047,9 @@ inline void Engine::check_list() {
   if (profile_.on) System::wait();  // (the step before it, not the check)
   const auto t0 = Clock::now();
   const Motion m = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                            thrust::counting_iterator<std::uint32_t>(ns()), SphereMotion{sphere_arrays()},
+                                            thrust::counting_iterator<std::uint32_t>(ns()), SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_)},
                                             Motion{}, MotionMax{});
+  if (m.unmirrored != 0.0) throw_unmirrored();
   const double half_skin = 0.5 * skin_;
   const double moved = std::sqrt(m.disp2);
   if (moved >= 1e150) {
@@ -1051,8 +1135,7 @@ inline void Engine::download(bool history) {
     i_wt = add(wall_touching_);
   }
   st.run();
-  if (*static_cast<const std::uint32_t*>(st.host(i_missing)))
-    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only");
+  if (*static_cast<const std::uint32_t*>(st.host(i_missing))) throw_unmirrored();
   std::vector<std::uint32_t> b_host, s_host;  // host index of each device body and sphere
   take(b_host, i_bhost, n_b);
   take(s_host, i_shost, n);

@@ -153,24 +153,28 @@ struct BoxUnion {
 };
 
 /// Largest squared displacement since the last build and largest squared sphere speed (a NaN
-/// displacement, from a non-finite position, counts as infinite), and the spheres' bounding box:
-/// the list check's one reduction, which also gives a rebuild its box.
+/// displacement, from a non-finite position, counts as infinite), the spheres' bounding box, and
+/// whether the last build found a pair in one row only (MirrorEntries' flag, as 0 or 1): the
+/// list check's one reduction, which also gives a rebuild its box. (All doubles: no padding
+/// bytes for the reduction to copy.)
 struct Motion {
   double disp2 = 0.0, speed2 = 0.0;
   Box box;
+  double unmirrored = 0.0;
 };
 struct SphereMotion {
   SphereArrays s;
+  const std::uint32_t* missing;  // MirrorEntries' flag
   BIODEM_HD Motion operator()(std::uint32_t i) const {
     const Vec3 x = s.position[i];
     const double d2 = norm2(x - s.built_at[i]);
-    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}};
+    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}, i == 0 && *missing ? 1.0 : 0.0};
   }
 };
 struct MotionMax {
   BIODEM_HD Motion operator()(const Motion& a, const Motion& b) const {
     return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2,
-                  BoxUnion{}(a.box, b.box)};
+                  BoxUnion{}(a.box, b.box), a.unmirrored > b.unmirrored ? a.unmirrored : b.unmirrored};
   }
 };
 
@@ -409,7 +413,8 @@ struct BuildRows {
 /// pair's lower-id side, the entry of the other side (b's row holds a: its position found by a
 /// binary search of b's row, which is sorted by stable id), into rows.mirror[k]. The list is
 /// symmetric (the cut-off test gives the same bits from both sides), so it is always found; if
-/// it were not, the entry names itself and `missing` counts it (the host then stops the run).
+/// it were not, the entry names itself and `missing` is set (the next list check or download
+/// stops the run).
 struct MirrorEntries {
   RowArrays rows;
   const std::uint32_t* sid;  // stable id of each sphere

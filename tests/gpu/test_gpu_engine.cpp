@@ -733,6 +733,34 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
   EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
 }
 
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 8 runs of steps
+// between list checks alternate the entry kernels and the row walk, timed; the faster runs on.
+// Each switch from the entry kernels to the row walk hands over the history (the row walk reads
+// both entries of a pair). The packing stepped that way, with an upload (a new round of trials)
+// in the middle, is bit-identical after every run to the packing stepped with the row walk
+// throughout. (It fails without the hand-over at the trial switches: checked.)
+TEST(GpuEngine, TimedKernelChoiceHandsTheHistoryOverBetweenTrials) {
+  auto a = packing(0.5e-3), b = packing(0.5e-3);
+  ::setenv("BIODEM_GPU_FORCES", "timed", 1);
+  auto ea = gpu_engine(*a);
+  ::unsetenv("BIODEM_GPU_FORCES");
+  auto eb = gpu_engine(*b);
+  eb->set_entry_forces(false);
+  ea->set_check_every(3);  // short runs between checks: the trials end early in each part
+  eb->set_check_every(3);
+  ea->upload();
+  eb->upload();
+  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+  const std::string how = ea->contact_kernels();
+  std::printf("[measured] timed choice: %llu steps, %llu by the entry kernels; %s\n",
+              static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->entry_force_passes()),
+              how.c_str());
+  EXPECT_NE(how.find("timed over the first"), std::string::npos) << how;
+  EXPECT_NE(how.find("(2 choice(s) in the run)"), std::string::npos) << how;  // one per upload
+  EXPECT_GT(ea->entry_force_passes(), 0u);
+  EXPECT_LT(ea->entry_force_passes(), steps);
+}
+
 // In a scene of single-sphere bodies the fused steps also sum each sphere's contacts inside the
 // body kernel (SumEntriesKickDrift, one launch fewer per step). The packing with spheres only
 // (two sizes; cohesion, rolling friction, a turning cylinder, a periodic axis), stepped in runs

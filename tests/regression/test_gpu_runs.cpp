@@ -173,7 +173,7 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
 TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   for (const std::string bad : {"BIODEM_GPU_FORCES=rowz", "BIODEM_GPU_SKIN_DIAMETERS=0", "BIODEM_GPU_SKIN_DIAMETERS=2.5",
                                 "BIODEM_GPU_CHECK_EVERY=65", "BIODEM_GPU_CHECK_EVERY=0", "BIODEM_GPU_SORT=-1",
-                                "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes"}) {
+                                "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes", "BIODEM_GPU_FORCES=fast"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -233,6 +233,44 @@ TEST(GpuRuns, ProfileLineAddsUpAndChangesNothing) {
   EXPECT_GT(builds, 0u);
   EXPECT_LT(builds, device_builds);  // the uploads' builds are outside the steps
   EXPECT_GE(builds + 3, device_builds);
+}
+
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first runs of steps
+// alternate the two contact kernel sets, timed, and the faster runs on. Whatever it picks, the
+// outputs and checkpoint are byte-identical to a run with either set fixed, and run.log says
+// which set ran and the two medians; the default on CPU threads says it chose by sphere count.
+TEST(GpuRuns, TimedKernelChoiceChangesNothing) {
+  const std::string rows = fresh_dir("gpu_forces_rows"), timed = fresh_dir("gpu_forces_timed"),
+                    dflt = fresh_dir("gpu_forces_default");
+  auto r0 = run_command("BIODEM_GPU_FORCES=rows " + biodem_exe() + " run " + kNeedles + " --out " + rows +
+                        " --device " + gpu_device());
+  ASSERT_EQ(r0.status, 0) << r0.output;
+  auto r1 = run_command("BIODEM_GPU_FORCES=timed " + biodem_exe() + " run " + kNeedles + " --out " + timed +
+                        " --device " + gpu_device());
+  ASSERT_EQ(r1.status, 0) << r1.output;
+  auto r2 = run_command(biodem_exe() + " run " + kNeedles + " --out " + dflt + " --device " + gpu_device());
+  ASSERT_EQ(r2.status, 0) << r2.output;
+  for (const std::string& d : {timed, dflt}) {
+    expect_same_outputs(rows, d);
+    EXPECT_EQ(slurp(rows + "/checkpoint.bin"), slurp(d + "/checkpoint.bin")) << d;
+  }
+  const std::string log = slurp(timed + "/run.log");
+  const auto at = log.find("GPU contact kernels: ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const std::string line = log.substr(at, log.find('\n', at) - at);
+  EXPECT_NE(line.find("timed over the first"), std::string::npos) << line;
+  double entries_us = -1, rows_us = -1;
+  const auto m = line.find("per-contact ", line.find("each)"));
+  ASSERT_NE(m, std::string::npos) << line;
+  ASSERT_EQ(std::sscanf(line.c_str() + m, "per-contact %lf us/step, row walk %lf us/step", &entries_us, &rows_us), 2)
+      << line;
+  EXPECT_GT(entries_us, 0.0);
+  EXPECT_GT(rows_us, 0.0);
+  const bool picked_entries = line.find("GPU contact kernels: per-contact") == 0;
+  EXPECT_EQ(picked_entries, entries_us <= rows_us) << line;
+  if (gpu_device() == "gpu-emulated") {
+    EXPECT_NE(slurp(dflt + "/run.log").find("by the sphere count"), std::string::npos);
+  }
 }
 
 // The device stores the bodies sorted by neighbour-list cell (docs/gpu.md); downloads and
