@@ -80,6 +80,10 @@ class DeviceEngine {
   virtual void set_check_every(std::uint32_t steps) = 0;
   /// Neighbour-list builds on the device so far.
   virtual std::uint64_t list_builds() const = 0;
+  /// List checks that read the motion (largest displacement and speed) that the check before
+  /// them started on the device, so without waiting for it (all but the first after an upload;
+  /// docs/gpu.md).
+  virtual std::uint64_t waitless_list_checks() const = 0;
   /// Times a list build found a row longer than the row capacity and rebuilt with wider rows,
   /// and the capacity now (entries per sphere); run.log reports both (scripts/gpu_check.sh).
   virtual std::uint64_t row_widenings() const = 0;

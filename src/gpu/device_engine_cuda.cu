@@ -3,7 +3,10 @@
 // when CMake finds a CUDA compiler (BIODEM_WITH_CUDA), with -fmad=false (docs/gpu.md: both
 // threads of a pair must compute identical bits, which contraction into FMA does not guarantee).
 #include <cuda_runtime.h>
+#include <thrust/iterator/counting_iterator.h>
+#include <thrust/iterator/transform_iterator.h>
 #include <thrust/system/cuda/execution_policy.h>
+#include <cub/device/device_reduce.cuh>
 #include <thrust/system/cuda/vector.h>
 
 #include <chrono>
@@ -257,6 +260,73 @@ class Staging {
   std::vector<char> pageable_;
 };
 
+/// A reduction over n indices queued on the engine's stream, its result copied into pinned host
+/// memory behind an event: the steps between two list checks queue it before their last step
+/// (inside the CUDA graph), and the check reads it, usually complete by then, so that the host
+/// does not wait for the device between the steps (Engine::check_list). prepare() makes the
+/// device buffer, the reduction's temporary storage, the pinned slot and the event outside any
+/// graph capture; enqueue() then only launches, copies and records (all capturable).
+template <class T>
+class Pending {
+ public:
+  Pending() = default;
+  Pending(const Pending&) = delete;
+  Pending& operator=(const Pending&) = delete;
+  ~Pending() {  // errors ignored: the context may be gone
+    if (event_) (void)cudaEventDestroy(event_);
+    if (host_) (void)cudaFreeHost(host_);
+    if (dev_) (void)cudaFree(dev_);
+    if (temp_) (void)cudaFree(temp_);
+  }
+  /// True when it (re)allocated (the graphs that enqueue it then hold stale addresses).
+  template <class F, class Op>
+  bool prepare(std::uint32_t n, const F& f, const Op& op, const T& init) {
+    std::size_t bytes = 0;
+    check(cub::DeviceReduce::Reduce(nullptr, bytes, input(f), static_cast<T*>(nullptr), n, op, init, engine_stream()));
+    bool made = false;
+    if (!dev_) {
+      check(cudaMalloc(reinterpret_cast<void**>(&dev_), sizeof(T)));
+      check(cudaHostAlloc(reinterpret_cast<void**>(&host_), sizeof(T), cudaHostAllocDefault));
+      check(cudaEventCreateWithFlags(&event_, cudaEventDisableTiming));
+      made = true;
+    }
+    if (bytes > temp_bytes_) {
+      if (temp_) check(cudaFree(temp_));
+      temp_ = nullptr;
+      check(cudaMalloc(&temp_, bytes));
+      temp_bytes_ = bytes;
+      made = true;
+    }
+    return made;
+  }
+  template <class F, class Op>
+  void enqueue(std::uint32_t n, const F& f, const Op& op, const T& init) {
+    std::size_t bytes = temp_bytes_;
+    check(cub::DeviceReduce::Reduce(temp_, bytes, input(f), dev_, n, op, init, engine_stream()));
+    check(cudaMemcpyAsync(host_, dev_, sizeof(T), cudaMemcpyDeviceToHost, engine_stream()));
+    check(cudaEventRecord(event_, engine_stream()));
+  }
+  /// The result of the last enqueue (waits for it if it is not done).
+  T get() {
+    check(cudaEventSynchronize(event_));
+    return *host_;
+  }
+
+ private:
+  template <class F>
+  static auto input(const F& f) {
+    return thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0), f);
+  }
+  static void check(cudaError_t e) {
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in the list check: ") + cudaGetErrorString(e));
+  }
+  T* dev_ = nullptr;
+  T* host_ = nullptr;
+  void* temp_ = nullptr;
+  std::size_t temp_bytes_ = 0;
+  cudaEvent_t event_ = nullptr;
+};
+
 /// Device time of the launches between start() and stop() on the engine's stream (CUDA events;
 /// stop() waits for them). If events cannot be created, the host's clock after a wait.
 class Timer {
@@ -340,6 +410,8 @@ struct System {
   /// BIODEM_GPU_FORCES=auto times the two contact kernel sets on the device (Engine::Tuning).
   static constexpr bool kTimedChoice = true;
   using Timer = cuda_device::Timer;
+  template <class T>
+  using Pending = cuda_device::Pending<T>;
 };
 
 }  // namespace biodem::gpu::cuda_device

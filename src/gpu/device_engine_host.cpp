@@ -2,6 +2,7 @@
 // system. Slow next to the CPU engine (full neighbour list, every contact evaluated twice); it
 // exists so that the GPU engine's physics runs in the tests on machines without a GPU.
 #include <thrust/for_each.h>
+#include <thrust/transform_reduce.h>
 #include <thrust/iterator/counting_iterator.h>
 #include <thrust/system/cpp/execution_policy.h>
 #include <thrust/system/omp/execution_policy.h>
@@ -29,6 +30,26 @@ struct System {
   static auto queue() { return thrust::cpp::par; }
   /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
   static void wait() {}
+  /// The list check's reduction, queued before the last step of a run of steps and read at the
+  /// check after it (on CUDA it runs meanwhile): here computed when queued, in index order on
+  /// the calling thread.
+  template <class T>
+  class Pending {
+   public:
+    template <class F, class Op>
+    bool prepare(std::uint32_t, const F&, const Op&, const T&) {
+      return false;
+    }
+    template <class F, class Op>
+    void enqueue(std::uint32_t n, const F& f, const Op& op, const T& init) {
+      value_ = thrust::transform_reduce(thrust::cpp::par, thrust::counting_iterator<std::uint32_t>(0),
+                                        thrust::counting_iterator<std::uint32_t>(n), f, init, op);
+    }
+    T get() const { return value_; }
+
+   private:
+    T value_{};
+  };
   /// BIODEM_GPU_FORCES=auto picks the contact kernels by the sphere count here (timing them on
   /// CPU threads would say nothing of a GPU); =timed times them with this clock.
   static constexpr bool kTimedChoice = false;

@@ -139,6 +139,7 @@ class Engine final : public DeviceEngine {
   std::uint32_t row_capacity() const override { return rows_.cap; }
   std::uint64_t fused_steps() const override { return fused_units_; }
   std::uint64_t sums_in_kick_steps() const override { return summed_in_kick_; }
+  std::uint64_t waitless_list_checks() const override { return waitless_checks_; }
   void set_sort_every(std::uint32_t builds) override {
     sort_every_ = builds;
     builds_until_sort_ = builds ? 1 : 0;  // at the next build
@@ -298,8 +299,23 @@ class Engine final : public DeviceEngine {
     if (n) System::launch(n, f);
   }
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
-  /// move more than half the skin before the next check.
+  /// move more than half the skin before the next check. It reads the motion that the steps
+  /// before it queued on the device one step before their end (no wait).
   void check_list();
+  SphereMotion motion_of_sphere() { return SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_)}; }
+  /// The list check's reduction over the current positions (waits for it).
+  Motion motion_now();
+  /// Stops the run with one line if the motion shows a pair missing from a row, a non-finite
+  /// position or a sphere past half the skin; `lag`: steps the motion may be old.
+  void check_motion(const Motion& m, std::uint32_t lag);
+  // The list check's motion, queued by run_units before the last step of each run of steps
+  // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
+  // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
+  // steps old, normally 1).
+  typename System::template Pending<Motion> motion_;
+  bool motion_queued_ = false;
+  std::uint64_t drifts_ = 0, motion_drifts_ = 0;
+  std::uint64_t waitless_checks_ = 0;  // checks that read a queued motion
 
   sim::Simulation& host_;
   std::string name_;
@@ -487,6 +503,7 @@ inline void Engine::upload() {
   to_device(b_first_, b.first_sphere);
   to_device(b_count_, b.sphere_count);
   mirror_missing_[0] = 0u;
+  motion_queued_ = false;  // (of the state before the upload)
   {
     const std::uint32_t choices = tuning_.uploads;
     tuning_ = Tuning{};
@@ -596,6 +613,7 @@ inline void Engine::upload() {
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
   steps_until_check_ = 1;  // the first step checks
+  if (ns()) motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // (graphs cleared above)
   if (!host_.forces_current()) {
     // Set-up or after an insertion: forces for the first half kick, without advancing the
     // contact history (this is not a time step), as the CPU engine's refresh().
@@ -881,6 +899,7 @@ inline void Engine::run_units(std::uint32_t units) {
   const bool fused = fuse_ && !settle_active_;
   auto record = [this, units, fused] {
     for (std::uint32_t u = 0; u < units; ++u) {
+      if (u + 1 == units && ns()) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // for the next check
       if (fused) {
         fused_unit();
       } else {
@@ -909,6 +928,9 @@ inline void Engine::run_units(std::uint32_t units) {
     profile_.units_s += since(t0);
     profile_.units += units;
   }
+  motion_queued_ = ns() != 0;
+  motion_drifts_ = drifts_ + units - 1;
+  drifts_ += units;
   if (timing) {
     tuning_.per_step[tuning_.intervals++] = timer_.stop() / units;
     tuning_.steps += units;
@@ -975,6 +997,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   std::uint64_t cur = 1;
   bool stopped = false;
   first_half();
+  ++drifts_;
   tick(1);
   for (;;) {
     if (--steps_until_check_ == 0) {
@@ -1041,36 +1064,62 @@ inline std::string Engine::profile_report() const {
   return r;
 }
 
+inline Motion Engine::motion_now() {
+  return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                  thrust::counting_iterator<std::uint32_t>(ns()), motion_of_sphere(), Motion{},
+                                  MotionMax{});
+}
+
+inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
+  if (m.unmirrored != 0.0) throw_unmirrored();
+  const double half_skin = 0.5 * skin_;
+  const double moved = std::sqrt(m.disp2);
+  if (moved >= 1e150) {
+    check_finite();  // throws, naming the sphere (when the motion read is of now: see below)
+    if (lag) throw Error("GPU engine: a sphere's position became non-finite by t = " + std::to_string(host_.time_s()) +
+                         " s: the simulation became unstable (is [run].dt_s too large?)");
+  }
+  if (moved > half_skin)
+    throw Error("GPU engine: a sphere moved " + std::to_string(moved) +
+                " m since the last neighbour-list build, more than half the skin (" + std::to_string(half_skin) +
+                " m), by a list check at most " + std::to_string(lag) + " steps before t = " +
+                std::to_string(host_.time_s()) +
+                " s: contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
+}
+
 inline void Engine::check_list() {
   steps_until_check_ = check_every_;
   if (ns() == 0) return;
   if (profile_.on) System::wait();  // (the step before it, not the check)
   const auto t0 = Clock::now();
-  const Motion m = thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
-                                            thrust::counting_iterator<std::uint32_t>(ns()), SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_)},
-                                            Motion{}, MotionMax{});
-  if (m.unmirrored != 0.0) throw_unmirrored();
+  // The motion queued before the last step of the steps just launched (one step old, normally
+  // complete by the time the host gets here while that step still runs: no wait), or, first
+  // after an upload, the motion of now.
+  const bool lagged = motion_queued_;
+  const std::uint32_t lag = lagged ? static_cast<std::uint32_t>(std::min<std::uint64_t>(drifts_ - motion_drifts_, 1u << 20)) : 0;
+  Motion m = lagged ? motion_.get() : motion_now();
+  motion_queued_ = false;
+  if (lagged) ++waitless_checks_;
+  check_motion(m, lag);
   const double half_skin = 0.5 * skin_;
-  const double moved = std::sqrt(m.disp2);
-  if (moved >= 1e150) {
-    check_finite();  // throws, naming the sphere
-  }
-  if (moved > half_skin)
-    throw Error("GPU engine: a sphere moved " + std::to_string(moved) + " m since the last neighbour-list build, more than half the skin (" +
-                std::to_string(half_skin) + " m), between two list checks at t = " + std::to_string(host_.time_s()) +
-                " s: contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
-  // Until the next check, k drifts later, a sphere moves at most k dt v; twice the largest
-  // current speed allows for acceleration in between. Rebuild if that could exceed half the
-  // skin, and check sooner than check_every_ steps when even a fresh list would not last.
-  const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
-  double room = half_skin - moved;
+  // Until the next check, k steps later, a sphere moves at most k dt v; twice the largest speed
+  // allows for acceleration in between. The motion read is `lag` steps old: those steps count
+  // too. Rebuild if a sphere could pass half the skin before the next check, and check sooner
+  // than check_every_ steps when even a fresh list would not last.
+  double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
+  double room = half_skin - std::sqrt(m.disp2) - static_cast<double>(lag) * per_step;
   if (profile_.on) {
     profile_.checks_s += since(t0);
     ++profile_.checks;
   }
   if (room < check_every_ * per_step) {
     const auto t1 = Clock::now();
-    build_list(&m.box);  // (positions found finite above: moved < half the skin)
+    if (lagged) {  // the box, finiteness and speed of now for the build (which waits anyway)
+      m = motion_now();
+      check_motion(m, 0);
+      per_step = 2.0 * dt_ * std::sqrt(m.speed2);
+    }
+    build_list(&m.box);  // (positions found finite: moved < half the skin)
     room = half_skin;
     if (profile_.on) {
       System::wait();

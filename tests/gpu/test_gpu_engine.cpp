@@ -343,6 +343,52 @@ TEST(GpuEngine, ResultIndependentOfSkinAndThreads) {
   EXPECT_EQ(std::memcmp(a.first.data(), c.first.data(), a.first.size() * sizeof(Vec3)), 0);
 }
 
+// The list check reads the motion (largest displacement since the build, largest speed) that the
+// steps before it queued on the device one step before their end, so the host does not wait for
+// the device at a check that does not rebuild; it then allows for that step in its margin. The
+// packing with a 1.2 mm skin (spheres at up to ~1.7 m/s, ~17 um per step: most checks do not
+// rebuild, so the motion read decides), stepped in runs of varied length: after every run each
+// pair of spheres that touches is in the device list, and almost every check read a queued
+// motion (all but the first after each upload). It fails when the queued motion goes stale
+// (checked: not queued after the first 50 steps).
+TEST(GpuEngine, ListChecksReadTheQueuedMotionAndMissNoContact) {
+  auto s = packing(1.2e-3);
+  auto eng = gpu_engine(*s);
+  eng->upload();
+  const std::uint64_t runs[] = {1, 9, 10, 11, 37, 64, 3, 150, 2, 113};
+  std::uint64_t steps = 0, touching_seen = 0;
+  for (const std::uint64_t r : runs) {
+    eng->advance(r);
+    steps += r;
+    eng->download(false);
+    std::size_t unmirrored = 1;
+    const auto list = eng->list_pairs(&unmirrored);
+    EXPECT_EQ(unmirrored, 0u);
+    const auto& sp = s->spheres();
+    const Vec3 len = s->domain().length_m();
+    std::size_t missing = 0;
+    for (std::uint32_t i = 0; i < sp.size(); ++i)
+      for (std::uint32_t j = i + 1; j < sp.size(); ++j) {
+        if (sp.body[i] == sp.body[j]) continue;
+        Vec3 d = sp.position_m[i] - sp.position_m[j];
+        d.z -= len.z * std::round(d.z / len.z);
+        const double c = sp.radius_m[i] + sp.radius_m[j];
+        if (!(norm2(d) < c * c)) continue;
+        ++touching_seen;
+        if (!std::binary_search(list.begin(), list.end(), std::make_pair(i, j))) ++missing;
+      }
+    EXPECT_EQ(missing, 0u) << "after " << steps << " steps";
+  }
+  const std::uint64_t waitless = eng->waitless_list_checks();
+  std::printf("[measured] %llu steps, %llu list builds, %llu checks read a queued motion, %llu touching pairs "
+              "seen, all in the list\n",
+              static_cast<unsigned long long>(steps), static_cast<unsigned long long>(eng->list_builds()),
+              static_cast<unsigned long long>(waitless), static_cast<unsigned long long>(touching_seen));
+  EXPECT_GT(touching_seen, 0u);
+  EXPECT_GT(eng->list_builds(), 3u);
+  EXPECT_GE(waitless, steps / 10 - 2);  // at least one check per 10 steps, the first one waited
+}
+
 // Checkpoint round trip between engines: the GPU state downloaded with its history into the
 // host, continued on the CPU engine, matches the GPU engine continuing itself (1e-9 m after 200
 // more steps; the summation order differs), and an upload of the downloaded state continues the
