@@ -147,18 +147,25 @@ class Graphs {
     for (auto& [key, exec] : cache_) (void)cudaGraphExecDestroy(exec);  // errors ignored: the context may be gone
     cache_.clear();
   }
-  /// Replays the graph of `key`, capturing `record` (which only launches kernels on
-  /// engine_stream()) first if needed. False when graphs are off: the caller launches plainly.
+  /// Captures the graph of `key` from `record` (which only launches kernels and queues copies
+  /// and event records on engine_stream()) unless it is cached. False when graphs are off or
+  /// the capture failed: the caller launches plainly.
+  template <class R>
+  bool prepare(std::uint64_t key, R& record) {
+    if (!enabled_) return false;
+    if (cache_.count(key)) return true;
+    if (cache_.size() >= 64) clear();
+    cudaGraphExec_t exec = capture(record);
+    if (!exec) return false;
+    cache_.emplace(key, exec);
+    return true;
+  }
+  /// Replays the graph of `key`, capturing it first if needed (prepare). False when graphs are
+  /// off: the caller launches plainly.
   template <class R>
   bool run(std::uint64_t key, R& record) {
-    if (!enabled_) return false;
-    auto it = cache_.find(key);
-    if (it == cache_.end()) {
-      if (cache_.size() >= 64) clear();
-      cudaGraphExec_t exec = capture(record);
-      if (!exec) return false;
-      it = cache_.emplace(key, exec).first;
-    }
+    if (!prepare(key, record)) return false;
+    const auto it = cache_.find(key);
     const cudaError_t e = cudaGraphLaunch(it->second, engine_stream());
     if (e != cudaSuccess)
       throw Error(std::string("GPU engine: CUDA error at a graph launch: ") + cudaGetErrorString(e));
@@ -304,7 +311,13 @@ class Pending {
     std::size_t bytes = temp_bytes_;
     check(cub::DeviceReduce::Reduce(temp_, bytes, input(f), dev_, n, op, init, engine_stream()));
     check(cudaMemcpyAsync(host_, dev_, sizeof(T), cudaMemcpyDeviceToHost, engine_stream()));
-    check(cudaEventRecord(event_, engine_stream()));
+    // Inside a graph capture a plain event record only orders streams; recorded as "external",
+    // it becomes a node of the graph that records the event at each replay.
+    cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
+    check(cudaStreamIsCapturing(engine_stream(), &capturing));
+    check(cudaEventRecordWithFlags(event_, engine_stream(),
+                                   capturing == cudaStreamCaptureStatusActive ? cudaEventRecordExternal
+                                                                                : cudaEventRecordDefault));
   }
   /// The result of the last enqueue (waits for it if it is not done).
   T get() {
@@ -344,11 +357,15 @@ class Timer {
     if (b_) (void)cudaEventDestroy(b_);
   }
   void start() {
-    if (a_) (void)cudaEventRecord(a_, engine_stream());
-    else t0_ = std::chrono::steady_clock::now();
+    if (a_ && cudaEventRecord(a_, engine_stream()) == cudaSuccess) return;
+    (void)cudaGetLastError();  // (not left for the next launch's check to name)
+    if (a_) (void)cudaStreamSynchronize(engine_stream());
+    a_failed_ = a_ != nullptr;
+    t0_ = std::chrono::steady_clock::now();
   }
   double stop() {
-    if (!a_) {
+    if (!a_ || a_failed_) {
+      a_failed_ = false;
       (void)cudaStreamSynchronize(engine_stream());
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     }
@@ -362,6 +379,7 @@ class Timer {
 
  private:
   cudaEvent_t a_ = nullptr, b_ = nullptr;
+  bool a_failed_ = false;  // this start fell back to the host's clock
   std::chrono::steady_clock::time_point t0_;
 };
 

@@ -92,6 +92,8 @@ struct System {
   /// CUDA graphs do not exist here: the engine launches plainly.
   struct Graphs {
     template <class R>
+    bool prepare(std::uint64_t, R&) { return false; }
+    template <class R>
     bool run(std::uint64_t, R&) { return false; }
     void clear() {}
   };

@@ -613,7 +613,7 @@ inline void Engine::upload() {
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
   steps_until_check_ = 1;  // the first step checks
-  if (ns()) motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // (graphs cleared above)
+  if (ns() && motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{})) invalidate_graphs();
   if (!host_.forces_current()) {
     // Set-up or after an insertion: forces for the first half kick, without advancing the
     // contact history (this is not a time step), as the CPU engine's refresh().
@@ -743,7 +743,7 @@ inline void Engine::build_list(const Box* known_box) {
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if ((use_entry_kernels() || timed_choice()) && !entries_ready_for(rows_.cap)) {
+  if ((use_entry_kernels() || tuning_under_way()) && !entries_ready_for(rows_.cap)) {
     entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
     entry_torque_.resize(entry_force_.size());
     wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
@@ -920,6 +920,8 @@ inline void Engine::run_units(std::uint32_t units) {
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();
+  // A trial times the steps only: a graph captured for them is captured before the timer starts.
+  if (timing && units <= kMostUnitsInAGraph) graphs_.prepare(key, record);
   if (timing) timer_.start();
   const auto t0 = Clock::now();
   if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
