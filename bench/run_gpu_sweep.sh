@@ -3,7 +3,9 @@
 #   1. Nsight Compute (ncu) kernel durations in a window of the timed rotation phase of each
 #      bench drum (plain launches, BIODEM_GPU_GRAPH=0, so that ncu counts every kernel);
 #   2. bench/run_gpu_bench.sh on the GPU with BIODEM_GPU_PROFILE=1 (where the whole runs' step
-#      time went: step kernels, list checks, list builds; OUT/profile.txt), and for several values of BIODEM_GPU_FORCES (force kernels),
+#      time went: step kernels, list checks, list builds; OUT/profile.txt), with the list checks
+#      waiting for their reduction (BIODEM_GPU_QUEUED_CHECK=0), and for several values of
+#      BIODEM_GPU_FORCES (force kernels),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
 #      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
 #      last (the spread of the two is the noise).
@@ -59,7 +61,7 @@ done
 # ------------------------------------------------------------------------ 2. the sweep
 results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows BIODEM_GPU_QUEUED_CHECK=0 \
   BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_SKIN_DIAMETERS=1 \
   BIODEM_GPU_BLOCK=64 BIODEM_GPU_CHECK_EVERY=20 default}
 [ -n "$settings" ] || exit 0

@@ -125,6 +125,13 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_CHECK_EVERY = '" + std::string(every) + "': expected a whole number of steps from 1 to 64");
       check_every_ = static_cast<std::uint32_t>(v);
     }
+    // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
+    // reduction queued before it; for comparisons, and a way out if the queued one fails).
+    if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
+      if (std::string(q) != "0" && std::string(q) != "1")
+        throw Error("BIODEM_GPU_QUEUED_CHECK = '" + std::string(q) + "': expected 0 or 1");
+      queued_checks_ = std::string(q) == "1";
+    }
     // BIODEM_GPU_PROFILE=1: where the wall time of advance() goes (profile_report(), run.log).
     if (const char* prof = std::getenv("BIODEM_GPU_PROFILE"); prof && *prof) {
       if (std::string(prof) != "0" && std::string(prof) != "1")
@@ -314,6 +321,7 @@ class Engine final : public DeviceEngine {
   // steps old, normally 1).
   typename System::template Pending<Motion> motion_;
   bool motion_queued_ = false;
+  bool queued_checks_ = true;  // BIODEM_GPU_QUEUED_CHECK; off for the rest of a run if reading one fails
   std::uint64_t drifts_ = 0, motion_drifts_ = 0;
   std::uint64_t waitless_checks_ = 0;  // checks that read a queued motion
 
@@ -899,7 +907,7 @@ inline void Engine::run_units(std::uint32_t units) {
   const bool fused = fuse_ && !settle_active_;
   auto record = [this, units, fused] {
     for (std::uint32_t u = 0; u < units; ++u) {
-      if (u + 1 == units && ns()) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // for the next check
+      if (u + 1 == units && ns() && queued_checks_) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // for the next check
       if (fused) {
         fused_unit();
       } else {
@@ -916,7 +924,7 @@ inline void Engine::run_units(std::uint32_t units) {
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
-  const std::uint64_t key = (rows_.generation << 16) | (entries ? 1u << 12 : 0u) |
+  const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();
@@ -930,7 +938,7 @@ inline void Engine::run_units(std::uint32_t units) {
     profile_.units_s += since(t0);
     profile_.units += units;
   }
-  motion_queued_ = ns() != 0;
+  motion_queued_ = ns() != 0 && queued_checks_;
   motion_drifts_ = drifts_ + units - 1;
   drifts_ += units;
   if (timing) {
@@ -1097,9 +1105,21 @@ inline void Engine::check_list() {
   // The motion queued before the last step of the steps just launched (one step old, normally
   // complete by the time the host gets here while that step still runs: no wait), or, first
   // after an upload, the motion of now.
-  const bool lagged = motion_queued_;
-  const std::uint32_t lag = lagged ? static_cast<std::uint32_t>(std::min<std::uint64_t>(drifts_ - motion_drifts_, 1u << 20)) : 0;
-  Motion m = lagged ? motion_.get() : motion_now();
+  bool lagged = motion_queued_;
+  Motion m;
+  if (lagged) {
+    try {
+      m = motion_.get();
+    } catch (const Error& e) {  // (a broken context fails the reduction below too, and stops the run)
+      queued_checks_ = false;
+      invalidate_graphs();
+      std::fprintf(stderr, "biodem: %s; the list checks wait for their reduction for the rest of the run\n", e.what());
+      lagged = false;
+    }
+  }
+  if (!lagged) m = motion_now();
+  const std::uint32_t lag =
+      lagged ? static_cast<std::uint32_t>(std::min<std::uint64_t>(drifts_ - motion_drifts_, 1u << 20)) : 0;
   motion_queued_ = false;
   if (lagged) ++waitless_checks_;
   check_motion(m, lag);

@@ -173,7 +173,8 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
 TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   for (const std::string bad : {"BIODEM_GPU_FORCES=rowz", "BIODEM_GPU_SKIN_DIAMETERS=0", "BIODEM_GPU_SKIN_DIAMETERS=2.5",
                                 "BIODEM_GPU_CHECK_EVERY=65", "BIODEM_GPU_CHECK_EVERY=0", "BIODEM_GPU_SORT=-1",
-                                "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes", "BIODEM_GPU_FORCES=fast"}) {
+                                "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes", "BIODEM_GPU_FORCES=fast",
+                                "BIODEM_GPU_QUEUED_CHECK=2"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
