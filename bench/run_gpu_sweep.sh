@@ -61,9 +61,10 @@ done
 # ------------------------------------------------------------------------ 2. the sweep
 results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows BIODEM_GPU_QUEUED_CHECK=0 \
-  BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_SKIN_DIAMETERS=1 \
-  BIODEM_GPU_BLOCK=64 BIODEM_GPU_CHECK_EVERY=20 default}
+# (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
+# and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
+  BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()
