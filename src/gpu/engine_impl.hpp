@@ -266,10 +266,6 @@ class Engine final : public DeviceEngine {
   /// names each sphere's old row; entries match by stable id). False when the bodies were
   /// already in order (nothing moved).
   bool sort_bodies();
-  /// a[k] = a[src[k]] for every k (thrust::gather through scratch; a keeps its buffer, which
-  /// the CUDA graphs hold).
-  template <class T>
-  void permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch);
   /// The force kernels' arguments; `halt` as the step kernels (null: always evaluated).
   ContactArgs contact_args(const std::uint32_t* halt);
   /// Contact forces of every sphere; `halt` as the step kernels (null: always evaluated).
@@ -343,11 +339,37 @@ class Engine final : public DeviceEngine {
   vec<std::uint32_t> b_host_, b_slot_, s_host_;
   // A sort's work arrays: body keys, the new order of the bodies, the old first spheres and each
   // new sphere's old index; scratch of each element type.
-  vec<std::uint32_t> body_key_, body_order_, old_first_, sphere_src_;
-  vec<Vec3> tmp_vec3_;
-  vec<Quat> tmp_quat_;
-  vec<double> tmp_double_;
-  vec<std::uint32_t> tmp_u32_;
+  vec<std::uint32_t> body_key_, body_order_, sphere_src_;
+  // The stashes of a Permutation: one per array reordered at once (enlarged only).
+  struct Stash {
+    vec<Vec3> v3[Permutation::kMost];
+    vec<Quat> q[Permutation::kMost];
+    vec<double> d[Permutation::kMost];
+    vec<std::uint32_t> u[Permutation::kMost];
+  } body_stash_, sphere_stash_;
+  /// Adds the live array `a` to permutation p, with the next stash of its type (enlarged to fit).
+  template <class T>
+  void add_to(Permutation& p, Stash& st, vec<T>& a) {
+    auto take = [&](vec<T>& stash, T** live_slot, T** stash_slot) {
+      if (stash.size() < a.size()) stash.resize(a.size());
+      *live_slot = raw<T>(a);
+      *stash_slot = raw<T>(stash);
+    };
+    if constexpr (std::is_same_v<T, Vec3>) {
+      take(st.v3[p.n3], &p.v3[p.n3], &p.v3_stash[p.n3]);
+      ++p.n3;
+    } else if constexpr (std::is_same_v<T, Quat>) {
+      take(st.q[p.nq], &p.q[p.nq], &p.q_stash[p.nq]);
+      ++p.nq;
+    } else if constexpr (std::is_same_v<T, double>) {
+      take(st.d[p.nd], &p.d[p.nd], &p.d_stash[p.nd]);
+      ++p.nd;
+    } else {
+      static_assert(std::is_same_v<T, std::uint32_t>);
+      take(st.u[p.nu], &p.u[p.nu], &p.u_stash[p.nu]);
+      ++p.nu;
+    }
+  }
   vec<contact::ContactHistory> tmp_history_;
   vec<std::uint8_t> tmp_u8_;
   std::uint32_t sort_every_ = kSortEvery;  // 0: never
@@ -761,14 +783,6 @@ inline void Engine::build_list(const Box* known_box) {
   ++builds_;
 }
 
-template <class T>
-void Engine::permute(vec<T>& a, const vec<std::uint32_t>& src, vec<T>& scratch) {
-  // The scratch serves arrays of bodies and of spheres: only ever enlarged (a resize fills the
-  // new elements, a kernel on the device and a parallel loop emulated).
-  if (scratch.size() < a.size()) scratch.resize(a.size());
-  thrust::copy(queue(), a.begin(), a.end(), scratch.begin());
-  thrust::gather(queue(), src.begin(), src.end(), scratch.begin(), a.begin());
-}
 
 inline bool Engine::sort_bodies() {
   const std::uint32_t m = nb(), n = ns();
@@ -782,26 +796,36 @@ inline bool Engine::sort_bodies() {
   body_order_.resize(m);
   thrust::sequence(queue(), body_order_.begin(), body_order_.end());
   thrust::stable_sort_by_key(queue(), body_key_.begin(), body_key_.end(), body_order_.begin());
-  // Bodies: counts, then the first spheres of the new order, then each new sphere's source.
-  old_first_.resize(m);
-  thrust::copy(queue(), b_first_.begin(), b_first_.end(), old_first_.begin());
-  permute(b_count_, body_order_, tmp_u32_);
+  // Bodies: every array stashed, then gathered in the new order (the first spheres are stashed
+  // only: the old ones name each body's spheres for SphereSources, the new ones are the
+  // exclusive scan of the new counts).
+  Permutation pb;
+  for (auto* a : {&b_pos_, &b_vel_, &b_omega_, &b_l_, &b_force_, &b_torque_, &b_inertia_}) add_to(pb, body_stash_, *a);
+  add_to(pb, body_stash_, b_q_);
+  add_to(pb, body_stash_, b_mass_);
+  add_to(pb, body_stash_, b_count_);
+  add_to(pb, body_stash_, b_host_);
+  add_to(pb, body_stash_, b_first_);
+  launch(m, pb);  // stash
+  pb.nu -= 1;     // (b_first_, last: not gathered)
+  pb.src = raw<std::uint32_t>(body_order_);
+  launch(m, pb);  // gather
+  const std::uint32_t* old_first = pb.u_stash[pb.nu];
   thrust::exclusive_scan(queue(), b_count_.begin(), b_count_.end(), b_first_.begin());
-  sphere_src_.resize(n);
-  launch(m, SphereSources{raw<std::uint32_t>(body_order_), raw<std::uint32_t>(old_first_), raw<std::uint32_t>(b_first_),
-                          raw<std::uint32_t>(b_count_), raw<std::uint32_t>(sphere_src_), raw<std::uint32_t>(s_body_)});
-  for (auto* a : {&b_pos_, &b_vel_, &b_omega_, &b_l_, &b_force_, &b_torque_, &b_inertia_})
-    permute(*a, body_order_, tmp_vec3_);
-  permute(b_q_, body_order_, tmp_quat_);
-  permute(b_mass_, body_order_, tmp_double_);
-  permute(b_host_, body_order_, tmp_u32_);
   thrust::scatter(queue(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(m),
                   b_host_.begin(), b_slot_.begin());
+  sphere_src_.resize(n);
+  launch(m, SphereSources{raw<std::uint32_t>(body_order_), old_first, raw<std::uint32_t>(b_first_),
+                          raw<std::uint32_t>(b_count_), raw<std::uint32_t>(sphere_src_), raw<std::uint32_t>(s_body_)});
   // Spheres (s_built_at_ is overwritten by this build; cell_key_, wrap_, cell_ are recomputed).
-  for (auto* a : {&s_pos_, &s_vel_, &s_omega_, &s_offset_, &s_force_, &s_torque_}) permute(*a, sphere_src_, tmp_vec3_);
-  permute(s_radius_, sphere_src_, tmp_double_);
-  permute(s_bmass_, sphere_src_, tmp_double_);
-  for (auto* a : {&s_material_, &s_sid_, &s_contacts_, &s_host_}) permute(*a, sphere_src_, tmp_u32_);
+  Permutation ps;
+  for (auto* a : {&s_pos_, &s_vel_, &s_omega_, &s_offset_, &s_force_, &s_torque_}) add_to(ps, sphere_stash_, *a);
+  add_to(ps, sphere_stash_, s_radius_);
+  add_to(ps, sphere_stash_, s_bmass_);
+  for (auto* a : {&s_material_, &s_sid_, &s_contacts_, &s_host_}) add_to(ps, sphere_stash_, *a);
+  launch(n, ps);  // stash
+  ps.src = raw<std::uint32_t>(sphere_src_);
+  launch(n, ps);  // gather
   // Wall history [wall * n + sphere].
   if (n_walls_) {
     const auto slots = thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0),

@@ -477,6 +477,35 @@ struct SphereSources {
   }
 };
 
+/// Several arrays of one length reordered together (a sort of the bodies, docs/gpu.md): with
+/// `src` null, each array is copied into its stash (stash[i] = live[i]); then, with `src`, each
+/// takes its new order from the stash (live[i] = stash[src[i]]). Two launches for all the
+/// arrays of bodies (or of spheres) instead of two Thrust calls per array; each live array keeps
+/// its buffer (the CUDA graphs hold the addresses). One thread per index.
+struct Permutation {
+  static constexpr int kMost = 8;
+  Vec3 *v3[kMost], *v3_stash[kMost];
+  Quat *q[kMost], *q_stash[kMost];
+  double *d[kMost], *d_stash[kMost];
+  std::uint32_t *u[kMost], *u_stash[kMost];
+  int n3 = 0, nq = 0, nd = 0, nu = 0;
+  const std::uint32_t* src = nullptr;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    if (!src) {
+      for (int k = 0; k < n3; ++k) v3_stash[k][i] = v3[k][i];
+      for (int k = 0; k < nq; ++k) q_stash[k][i] = q[k][i];
+      for (int k = 0; k < nd; ++k) d_stash[k][i] = d[k][i];
+      for (int k = 0; k < nu; ++k) u_stash[k][i] = u[k][i];
+      return;
+    }
+    const std::uint32_t j = src[i];
+    for (int k = 0; k < n3; ++k) v3[k][i] = v3_stash[k][j];
+    for (int k = 0; k < nq; ++k) q[k][i] = q_stash[k][j];
+    for (int k = 0; k < nd; ++k) d[k][i] = d_stash[k][j];
+    for (int k = 0; k < nu; ++k) u[k][i] = u_stash[k][j];
+  }
+};
+
 /// A dense (wall, sphere) array [w * n + i] in the new sphere order takes slot w n + i from slot
 /// w n + src[i] (the map of a thrust::gather).
 struct WallSlotSource {
