@@ -340,6 +340,46 @@ class Pending {
   cudaEvent_t event_ = nullptr;
 };
 
+/// A copy of one small device value into pinned host memory behind an event, queued like
+/// Pending's result (the settle criterion's state, read at the next list check without a wait).
+template <class T>
+class PendingCopy {
+ public:
+  PendingCopy() = default;
+  PendingCopy(const PendingCopy&) = delete;
+  PendingCopy& operator=(const PendingCopy&) = delete;
+  ~PendingCopy() {  // errors ignored: the context may be gone
+    if (event_) (void)cudaEventDestroy(event_);
+    if (host_) (void)cudaFreeHost(host_);
+  }
+  /// True when it allocated (graphs that enqueue it hold the addresses).
+  bool prepare() {
+    if (host_) return false;
+    check(cudaHostAlloc(reinterpret_cast<void**>(&host_), sizeof(T), cudaHostAllocDefault));
+    check(cudaEventCreateWithFlags(&event_, cudaEventDisableTiming));
+    return true;
+  }
+  void enqueue(const T* src) {
+    check(cudaMemcpyAsync(host_, src, sizeof(T), cudaMemcpyDeviceToHost, engine_stream()));
+    cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
+    check(cudaStreamIsCapturing(engine_stream(), &capturing));
+    check(cudaEventRecordWithFlags(event_, engine_stream(),
+                                   capturing == cudaStreamCaptureStatusActive ? cudaEventRecordExternal
+                                                                                : cudaEventRecordDefault));
+  }
+  T get() {
+    check(cudaEventSynchronize(event_));
+    return *host_;
+  }
+
+ private:
+  static void check(cudaError_t e) {
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a settle poll: ") + cudaGetErrorString(e));
+  }
+  T* host_ = nullptr;
+  cudaEvent_t event_ = nullptr;
+};
+
 /// Device time of the launches between start() and stop() on the engine's stream (CUDA events;
 /// stop() waits for them). If events cannot be created, the host's clock after a wait.
 class Timer {
@@ -430,6 +470,8 @@ struct System {
   using Timer = cuda_device::Timer;
   template <class T>
   using Pending = cuda_device::Pending<T>;
+  template <class T>
+  using PendingCopy = cuda_device::PendingCopy<T>;
 };
 
 }  // namespace biodem::gpu::cuda_device

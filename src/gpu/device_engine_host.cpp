@@ -50,6 +50,17 @@ struct System {
    private:
     T value_{};
   };
+  /// A small device value copied when queued (on CUDA: into pinned memory behind an event).
+  template <class T>
+  class PendingCopy {
+   public:
+    bool prepare() { return false; }
+    void enqueue(const T* src) { value_ = *src; }
+    T get() const { return value_; }
+
+   private:
+    T value_{};
+  };
   /// BIODEM_GPU_FORCES=auto picks the contact kernels by the sphere count here (timing them on
   /// CPU threads would say nothing of a GPU); =timed times them with this clock.
   static constexpr bool kTimedChoice = false;

@@ -318,6 +318,10 @@ class Engine final : public DeviceEngine {
   typename System::template Pending<Motion> motion_;
   bool motion_queued_ = false;
   bool queued_checks_ = true;  // BIODEM_GPU_QUEUED_CHECK; off for the rest of a run if reading one fails
+  // In a criterion phase, the settle state queued likewise (before the last step of a run of
+  // steps) and read at the next check instead of a waiting copy; whether one is queued.
+  typename System::template PendingCopy<SettleState> settle_copy_;
+  bool settle_queued_ = false;
   std::uint64_t drifts_ = 0, motion_drifts_ = 0;
   std::uint64_t waitless_checks_ = 0;  // checks that read a queued motion
 
@@ -534,6 +538,7 @@ inline void Engine::upload() {
   to_device(b_count_, b.sphere_count);
   mirror_missing_[0] = 0u;
   motion_queued_ = false;  // (of the state before the upload)
+  settle_queued_ = false;
   {
     const std::uint32_t choices = tuning_.uploads;
     tuning_ = Tuning{};
@@ -644,6 +649,7 @@ inline void Engine::upload() {
   build_list();
   steps_until_check_ = 1;  // the first step checks
   if (ns() && motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{})) invalidate_graphs();
+  if (settle_copy_.prepare()) invalidate_graphs();
   if (!host_.forces_current()) {
     // Set-up or after an insertion: forces for the first half kick, without advancing the
     // contact history (this is not a time step), as the CPU engine's refresh().
@@ -931,7 +937,10 @@ inline void Engine::run_units(std::uint32_t units) {
   const bool fused = fuse_ && !settle_active_;
   auto record = [this, units, fused] {
     for (std::uint32_t u = 0; u < units; ++u) {
-      if (u + 1 == units && ns() && queued_checks_) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});  // for the next check
+      if (u + 1 == units && ns() && queued_checks_) {  // for the next check
+        motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});
+        if (settle_active_) settle_copy_.enqueue(raw<SettleState>(settle_));
+      }
       if (fused) {
         fused_unit();
       } else {
@@ -963,6 +972,7 @@ inline void Engine::run_units(std::uint32_t units) {
     profile_.units += units;
   }
   motion_queued_ = ns() != 0 && queued_checks_;
+  settle_queued_ = motion_queued_ && settle_active_;
   motion_drifts_ = drifts_ + units - 1;
   drifts_ += units;
   if (timing) {
@@ -987,6 +997,7 @@ inline void Engine::poll_settle() {
   std::vector<SettleState> st;
   to_host(st, settle_);
   settle_host_ = st[0];
+  settle_queued_ = false;  // (older than this)
 }
 
 inline void Engine::begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) {
@@ -994,6 +1005,7 @@ inline void Engine::begin_settle(const SettleCriterion& c, std::uint64_t phase_s
   if (ke_sum_.size() < System::sum_scratch(nb())) ke_sum_.assign(System::sum_scratch(nb()), 0.0);
   criterion_ = c;
   settle_active_ = true;
+  settle_queued_ = false;
   settle_host_ = SettleState{phase_step, below, 0u};
   settle_[0] = settle_host_;
 }
@@ -1001,6 +1013,7 @@ inline void Engine::begin_settle(const SettleCriterion& c, std::uint64_t phase_s
 inline void Engine::end_settle() {
   invalidate_graphs();
   settle_active_ = false;
+  settle_queued_ = false;
   criterion_ = SettleCriterion{};
   settle_host_ = SettleState{};
   settle_[0] = settle_host_;  // the step kernels run again
@@ -1036,7 +1049,11 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   for (;;) {
     if (--steps_until_check_ == 0) {
       if (settle_active_) {
-        poll_settle();
+        // The state queued one step before (no wait): once met it no longer changes, so a
+        // state read late that says "met" is the state of now.
+        if (settle_queued_) settle_host_ = settle_copy_.get();
+        else poll_settle();
+        settle_queued_ = false;
         if (settle_host_.settled) {  // met at an earlier step: nothing after it was done
           stopped = true;
           steps_until_check_ = 1;
