@@ -354,26 +354,26 @@ class Engine final : public DeviceEngine {
   /// Adds the live array `a` to permutation p, with the next stash of its type (enlarged to fit).
   template <class T>
   void add_to(Permutation& p, Stash& st, vec<T>& a) {
-    auto take = [&](vec<T>& stash, T** live_slot, T** stash_slot) {
-      if (stash.size() < a.size()) stash.resize(a.size());
-      *live_slot = raw<T>(a);
-      *stash_slot = raw<T>(stash);
+    auto take = [&](int& count, vec<T>* stashes, T** live, T** stash) {
+      if (count == Permutation::kMost) throw Error("internal: more arrays of one type than a Permutation holds");
+      vec<T>& s = stashes[count];
+      if (s.size() < a.size()) s.resize(a.size());
+      live[count] = raw<T>(a);
+      stash[count] = raw<T>(s);
+      ++count;
     };
     if constexpr (std::is_same_v<T, Vec3>) {
-      take(st.v3[p.n3], &p.v3[p.n3], &p.v3_stash[p.n3]);
-      ++p.n3;
+      take(p.n3, st.v3, p.v3, p.v3_stash);
     } else if constexpr (std::is_same_v<T, Quat>) {
-      take(st.q[p.nq], &p.q[p.nq], &p.q_stash[p.nq]);
-      ++p.nq;
+      take(p.nq, st.q, p.q, p.q_stash);
     } else if constexpr (std::is_same_v<T, double>) {
-      take(st.d[p.nd], &p.d[p.nd], &p.d_stash[p.nd]);
-      ++p.nd;
+      take(p.nd, st.d, p.d, p.d_stash);
     } else {
       static_assert(std::is_same_v<T, std::uint32_t>);
-      take(st.u[p.nu], &p.u[p.nu], &p.u_stash[p.nu]);
-      ++p.nu;
+      take(p.nu, st.u, p.u, p.u_stash);
     }
   }
+
   vec<contact::ContactHistory> tmp_history_;
   vec<std::uint8_t> tmp_u8_;
   std::uint32_t sort_every_ = kSortEvery;  // 0: never
@@ -811,12 +811,13 @@ inline bool Engine::sort_bodies() {
   add_to(pb, body_stash_, b_mass_);
   add_to(pb, body_stash_, b_count_);
   add_to(pb, body_stash_, b_host_);
+  const int first_slot = pb.nu;  // b_first_, added last: stashed, not gathered
   add_to(pb, body_stash_, b_first_);
   launch(m, pb);  // stash
-  pb.nu -= 1;     // (b_first_, last: not gathered)
+  pb.nu = first_slot;
   pb.src = raw<std::uint32_t>(body_order_);
   launch(m, pb);  // gather
-  const std::uint32_t* old_first = pb.u_stash[pb.nu];
+  const std::uint32_t* old_first = pb.u_stash[first_slot];
   thrust::exclusive_scan(queue(), b_count_.begin(), b_count_.end(), b_first_.begin());
   thrust::scatter(queue(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(m),
                   b_host_.begin(), b_slot_.begin());
@@ -937,14 +938,15 @@ inline void Engine::run_units(std::uint32_t units) {
   const bool fused = fuse_ && !settle_active_;
   auto record = [this, units, fused] {
     for (std::uint32_t u = 0; u < units; ++u) {
-      if (u + 1 == units && ns() && queued_checks_) {  // for the next check
-        motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});
-        if (settle_active_) settle_copy_.enqueue(raw<SettleState>(settle_));
-      }
+      const bool queue_for_check = u + 1 == units && ns() && queued_checks_;  // (read at the next check)
+      if (queue_for_check) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});
       if (fused) {
         fused_unit();
       } else {
         second_half();
+        // The settle state after the last step's update (a criterion phase never fuses; the
+        // first half that follows does not touch it), so the check sees the last step too.
+        if (queue_for_check && settle_active_) settle_copy_.enqueue(raw<SettleState>(settle_));
         first_half();
       }
     }
@@ -1049,10 +1051,21 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   for (;;) {
     if (--steps_until_check_ == 0) {
       if (settle_active_) {
-        // The state queued one step before (no wait): once met it no longer changes, so a
-        // state read late that says "met" is the state of now.
-        if (settle_queued_) settle_host_ = settle_copy_.get();
-        else poll_settle();
+        // The state queued at the last step's update (no wait: the device is still on that
+        // step's first half), else a waiting copy.
+        bool read = false;
+        if (settle_queued_) {
+          try {
+            settle_host_ = settle_copy_.get();
+            read = true;
+          } catch (const Error& e) {  // (a broken context fails the copy below too, and stops the run)
+            queued_checks_ = false;
+            invalidate_graphs();
+            std::fprintf(stderr, "biodem: %s; the list checks wait for their reduction for the rest of the run\n",
+                         e.what());
+          }
+        }
+        if (!read) poll_settle();
         settle_queued_ = false;
         if (settle_host_.settled) {  // met at an earlier step: nothing after it was done
           stopped = true;
