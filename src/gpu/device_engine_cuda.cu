@@ -267,85 +267,14 @@ class Staging {
   std::vector<char> pageable_;
 };
 
-/// A reduction over n indices queued on the engine's stream, its result copied into pinned host
-/// memory behind an event: the steps between two list checks queue it before their last step
-/// (inside the CUDA graph), and the check reads it, usually complete by then, so that the host
-/// does not wait for the device between the steps (Engine::check_list). prepare() makes the
-/// device buffer, the reduction's temporary storage, the pinned slot and the event outside any
-/// graph capture; enqueue() then only launches, copies and records (all capturable).
-template <class T>
-class Pending {
- public:
-  Pending() = default;
-  Pending(const Pending&) = delete;
-  Pending& operator=(const Pending&) = delete;
-  ~Pending() {  // errors ignored: the context may be gone
-    if (event_) (void)cudaEventDestroy(event_);
-    if (host_) (void)cudaFreeHost(host_);
-    if (dev_) (void)cudaFree(dev_);
-    if (temp_) (void)cudaFree(temp_);
-  }
-  /// True when it (re)allocated (the graphs that enqueue it then hold stale addresses).
-  template <class F, class Op>
-  bool prepare(std::uint32_t n, const F& f, const Op& op, const T& init) {
-    std::size_t bytes = 0;
-    check(cub::DeviceReduce::Reduce(nullptr, bytes, input(f), static_cast<T*>(nullptr), n, op, init, engine_stream()));
-    bool made = false;
-    if (!dev_) {
-      check(cudaMalloc(reinterpret_cast<void**>(&dev_), sizeof(T)));
-      check(cudaHostAlloc(reinterpret_cast<void**>(&host_), sizeof(T), cudaHostAllocDefault));
-      check(cudaEventCreateWithFlags(&event_, cudaEventDisableTiming));
-      made = true;
-    }
-    if (bytes > temp_bytes_) {
-      if (temp_) check(cudaFree(temp_));
-      temp_ = nullptr;
-      check(cudaMalloc(&temp_, bytes));
-      temp_bytes_ = bytes;
-      made = true;
-    }
-    return made;
-  }
-  template <class F, class Op>
-  void enqueue(std::uint32_t n, const F& f, const Op& op, const T& init) {
-    std::size_t bytes = temp_bytes_;
-    check(cub::DeviceReduce::Reduce(temp_, bytes, input(f), dev_, n, op, init, engine_stream()));
-    check(cudaMemcpyAsync(host_, dev_, sizeof(T), cudaMemcpyDeviceToHost, engine_stream()));
-    // Inside a graph capture a plain event record only orders streams; recorded as "external",
-    // it becomes a node of the graph that records the event at each replay.
-    cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
-    check(cudaStreamIsCapturing(engine_stream(), &capturing));
-    check(cudaEventRecordWithFlags(event_, engine_stream(),
-                                   capturing == cudaStreamCaptureStatusActive ? cudaEventRecordExternal
-                                                                                : cudaEventRecordDefault));
-  }
-  /// The result of the last enqueue (waits for it if it is not done).
-  T get() {
-    check(cudaEventSynchronize(event_));
-    return *host_;
-  }
-
- private:
-  template <class F>
-  static auto input(const F& f) {
-    return thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0), f);
-  }
-  static void check(cudaError_t e) {
-    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in the list check: ") + cudaGetErrorString(e));
-  }
-  T* dev_ = nullptr;
-  T* host_ = nullptr;
-  void* temp_ = nullptr;
-  std::size_t temp_bytes_ = 0;
-  cudaEvent_t event_ = nullptr;
-};
-
-/// A copy of one small device value into pinned host memory behind an event, queued like
-/// Pending's result (the settle criterion's state, read at the next list check without a wait).
+/// A copy of one small device value into pinned host memory behind an event, queued on the
+/// engine's stream (inside a CUDA graph when captured): read later without waiting if the device
+/// has got there (the settle criterion's state, and Pending's result). prepare() makes the pinned
+/// slot and the event outside any graph capture.
 template <class T>
 class PendingCopy {
  public:
-  PendingCopy() = default;
+  explicit PendingCopy(const char* what) : what_(what) {}
   PendingCopy(const PendingCopy&) = delete;
   PendingCopy& operator=(const PendingCopy&) = delete;
   ~PendingCopy() {  // errors ignored: the context may be gone
@@ -361,23 +290,83 @@ class PendingCopy {
   }
   void enqueue(const T* src) {
     check(cudaMemcpyAsync(host_, src, sizeof(T), cudaMemcpyDeviceToHost, engine_stream()));
+    // Inside a graph capture a plain event record only orders streams; recorded as "external",
+    // it becomes a node of the graph that records the event at each replay.
     cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
     check(cudaStreamIsCapturing(engine_stream(), &capturing));
     check(cudaEventRecordWithFlags(event_, engine_stream(),
                                    capturing == cudaStreamCaptureStatusActive ? cudaEventRecordExternal
                                                                                 : cudaEventRecordDefault));
   }
+  /// The value of the last enqueue (waits for it if it is not done).
   T get() {
     check(cudaEventSynchronize(event_));
     return *host_;
   }
+  void check(cudaError_t e) const {
+    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in ") + what_ + ": " + cudaGetErrorString(e));
+  }
 
  private:
-  static void check(cudaError_t e) {
-    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a settle poll: ") + cudaGetErrorString(e));
-  }
+  const char* what_;
   T* host_ = nullptr;
   cudaEvent_t event_ = nullptr;
+};
+
+/// A reduction over n indices queued on the engine's stream, its result then copied like a
+/// PendingCopy: the steps between two list checks queue it before their last step (inside the
+/// CUDA graph), and the check reads it, usually complete by then, so that the host does not wait
+/// for the device between the steps (Engine::check_list). prepare() makes the device buffer and
+/// the reduction's temporary storage (and the copy's slot) outside any graph capture; enqueue()
+/// then only launches, copies and records (all capturable).
+template <class T>
+class Pending {
+ public:
+  Pending() = default;
+  Pending(const Pending&) = delete;
+  Pending& operator=(const Pending&) = delete;
+  ~Pending() {  // errors ignored: the context may be gone
+    if (dev_) (void)cudaFree(dev_);
+    if (temp_) (void)cudaFree(temp_);
+  }
+  /// True when it (re)allocated (the graphs that enqueue it then hold stale addresses).
+  template <class F, class Op>
+  bool prepare(std::uint32_t n, const F& f, const Op& op, const T& init) {
+    std::size_t bytes = 0;
+    copy_.check(cub::DeviceReduce::Reduce(nullptr, bytes, input(f), static_cast<T*>(nullptr), n, op, init,
+                                          engine_stream()));
+    bool made = copy_.prepare();
+    if (!dev_) {
+      copy_.check(cudaMalloc(reinterpret_cast<void**>(&dev_), sizeof(T)));
+      made = true;
+    }
+    if (bytes > temp_bytes_) {
+      if (temp_) copy_.check(cudaFree(temp_));
+      temp_ = nullptr;
+      copy_.check(cudaMalloc(&temp_, bytes));
+      temp_bytes_ = bytes;
+      made = true;
+    }
+    return made;
+  }
+  template <class F, class Op>
+  void enqueue(std::uint32_t n, const F& f, const Op& op, const T& init) {
+    std::size_t bytes = temp_bytes_;
+    copy_.check(cub::DeviceReduce::Reduce(temp_, bytes, input(f), dev_, n, op, init, engine_stream()));
+    copy_.enqueue(dev_);
+  }
+  /// The result of the last enqueue (waits for it if it is not done).
+  T get() { return copy_.get(); }
+
+ private:
+  template <class F>
+  static auto input(const F& f) {
+    return thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0), f);
+  }
+  PendingCopy<T> copy_{"the list check"};
+  T* dev_ = nullptr;
+  void* temp_ = nullptr;
+  std::size_t temp_bytes_ = 0;
 };
 
 /// Device time of the launches between start() and stop() on the engine's stream (CUDA events;

@@ -54,6 +54,7 @@ struct System {
   template <class T>
   class PendingCopy {
    public:
+    explicit PendingCopy(const char*) {}
     bool prepare() { return false; }
     void enqueue(const T* src) { value_ = *src; }
     T get() const { return value_; }

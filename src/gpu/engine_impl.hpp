@@ -320,7 +320,7 @@ class Engine final : public DeviceEngine {
   bool queued_checks_ = true;  // BIODEM_GPU_QUEUED_CHECK; off for the rest of a run if reading one fails
   // In a criterion phase, the settle state queued likewise (before the last step of a run of
   // steps) and read at the next check instead of a waiting copy; whether one is queued.
-  typename System::template PendingCopy<SettleState> settle_copy_;
+  typename System::template PendingCopy<SettleState> settle_copy_{"a settle poll"};
   bool settle_queued_ = false;
   std::uint64_t drifts_ = 0, motion_drifts_ = 0;
   std::uint64_t waitless_checks_ = 0;  // checks that read a queued motion

@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -720,6 +721,28 @@ std::uint64_t step_alike_in_runs(gpu::DeviceEngine& ea, gpu::DeviceEngine& eb, c
   return steps;
 }
 
+/// Two copies of the packing (skin, spheres only or not), each with its own engine set up by
+/// `set_a` / `set_b` before the upload, stepped alike in runs (step_alike_in_runs).
+struct SteppedAlike {
+  std::unique_ptr<sim::Simulation> a, b;
+  std::unique_ptr<gpu::DeviceEngine> ea, eb;
+  std::uint64_t steps = 0;
+};
+template <class SetA, class SetB>
+SteppedAlike stepped_alike(double skin_m, bool spheres_only, bool upload_after_run_4, SetA set_a, SetB set_b) {
+  SteppedAlike r;
+  r.a = packing(skin_m, true, true, spheres_only);
+  r.b = packing(skin_m, true, true, spheres_only);
+  r.ea = gpu_engine(*r.a);
+  r.eb = gpu_engine(*r.b);
+  set_a(*r.ea);
+  set_b(*r.eb);
+  r.ea->upload();
+  r.eb->upload();
+  r.steps = step_alike_in_runs(*r.ea, *r.eb, *r.a, *r.b, upload_after_run_4);
+  return r;
+}
+
 // Between two list checks, outside a settle-criterion phase, the body reduction of step c and
 // the first half of step c + 1 run as one kernel (ReduceKickDrift). The dense packing, stepped
 // in runs of steps (advance) across many list checks and rebuilds, with a criterion phase in the
@@ -728,13 +751,12 @@ std::uint64_t step_alike_in_runs(gpu::DeviceEngine& ea, gpu::DeviceEngine& eb, c
 // run. (On CUDA the fused launches are the ones captured in the graphs.)
 TEST(GpuEngine, FusedReduceKickDriftGivesTheBitsOfTheSeparateKernels) {
   // A skin of 1.2 mm: list checks several steps apart (runs of fused launches between them).
-  auto a = packing(1.2e-3), b = packing(1.2e-3);
-  auto ea = gpu_engine(*a), eb = gpu_engine(*b);
-  ea->set_fused_kick(true);
-  eb->set_fused_kick(false);
-  ea->upload();
-  eb->upload();
-  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, false);
+  const auto r = stepped_alike(
+      1.2e-3, false, false, [](gpu::DeviceEngine& e) { e.set_fused_kick(true); },
+      [](gpu::DeviceEngine& e) { e.set_fused_kick(false); });
+  const auto& ea = r.ea;
+  const auto& eb = r.eb;
+  const std::uint64_t steps = r.steps;
   std::printf("[measured] fused vs separate kernels: %llu steps in 7 runs, %llu list builds, %llu steps fused "
               "(separate engine: %llu); state, forces and history bit-identical after every run\n",
               static_cast<unsigned long long>(steps),
@@ -814,15 +836,19 @@ TEST(GpuEngine, TimedKernelChoiceHandsTheHistoryOverBetweenTrials) {
 // engine launching SumEntries, ReduceKick and KickDriftSpheres apart, and to the row walk.
 TEST(GpuEngine, SumsInsideTheKickGiveTheBitsOfSumEntries) {
   for (const bool entries_b : {true, false}) {
-    auto a = packing(1.2e-3, true, true, true), b = packing(1.2e-3, true, true, true);
-    auto ea = gpu_engine(*a), eb = gpu_engine(*b);
-    ea->set_fused_kick(true);
-    ea->set_entry_forces(true);
-    eb->set_fused_kick(false);
-    eb->set_entry_forces(entries_b);
-    ea->upload();
-    eb->upload();
-    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+    const auto r = stepped_alike(
+        1.2e-3, true, true,
+        [](gpu::DeviceEngine& e) {
+          e.set_fused_kick(true);
+          e.set_entry_forces(true);
+        },
+        [entries_b](gpu::DeviceEngine& e) {
+          e.set_fused_kick(false);
+          e.set_entry_forces(entries_b);
+        });
+    const auto& ea = r.ea;
+    const auto& eb = r.eb;
+    const std::uint64_t steps = r.steps;
     std::printf("[measured] sums in the body kernel vs %s: %llu steps, %llu with the sums in the body kernel, "
                 "%llu list builds; bit-identical after every run\n",
                 entries_b ? "SumEntries + ReduceKick + KickDriftSpheres" : "the row walk",
@@ -842,13 +868,12 @@ TEST(GpuEngine, SumsInsideTheKickGiveTheBitsOfSumEntries) {
 // criterion phase, with a download and upload in the middle: state, forces, contact counts,
 // pair and wall history bit-identical after every run.
 TEST(GpuEngine, EntryForcesGiveTheBitsOfTheRowWalk) {
-  auto a = packing(0.5e-3), b = packing(0.5e-3);
-  auto ea = gpu_engine(*a), eb = gpu_engine(*b);
-  ea->set_entry_forces(true);
-  eb->set_entry_forces(false);
-  ea->upload();
-  eb->upload();
-  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+  const auto r = stepped_alike(
+      0.5e-3, false, true, [](gpu::DeviceEngine& e) { e.set_entry_forces(true); },
+      [](gpu::DeviceEngine& e) { e.set_entry_forces(false); });
+  const auto& ea = r.ea;
+  const auto& eb = r.eb;
+  const std::uint64_t steps = r.steps;
   std::printf("[measured] entry kernels vs row walk: %llu steps, %llu list builds, %llu force passes by the "
               "entry kernels (row-walk engine: %llu); state, forces and history bit-identical after every run\n",
               static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
