@@ -18,14 +18,14 @@ OUT=${OUT:-/tmp/biodem-gpu-bench}
 BIODEM=${BIODEM:-$root/build/biodem}
 mkdir -p "$OUT"
 results="$OUT/gpu_results.csv"
-echo "engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h" > "$results"
+echo "engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
 
 run_one() {  # engine-label case extra-args...
   local label=$1 c=$2; shift 2
   local d="$OUT/${label}_${c}"
   rm -rf "$d"
   local f="$here/cases/${c}_bench.toml"
-  "$BIODEM" run "$f" --out "$d" "$@" > "$d.screen" 2>&1 || { echo "$label,$c,,,,,,(failed: $d.screen)" | tee -a "$results"; return; }
+  "$BIODEM" run "$f" --out "$d" "$@" > "$d.screen" 2>&1 || { echo "$label,$c,,,,,,,(failed: $d.screen)," | tee -a "$results"; return; }
   python3 - "$d/run.log" "$label" "$c" "$f" <<'PY' | tee -a "$results"
 import re, sys
 log, label, case, casefile = sys.argv[1:5]
@@ -34,9 +34,11 @@ m = re.search(r"phase 'rotate' ends .* after (\d+) steps; wall ([0-9.e+-]+) s", 
 spheres = int(re.search(r"^bodies: \d+, spheres: (\d+)", text, re.M).group(1))
 dt = float(re.search(r"^dt_s\s*=\s*([0-9.eE+-]+)", open(casefile).read(), re.M).group(1))
 steps, wall = int(m.group(1)), float(m.group(2))
+b = re.search(r"phase 'rotate' ends .*?; (\d+) list builds", text)  # the timed phase's list builds
+builds = b.group(1) if b else ""
 us = 1e6 * wall / steps
 three_rev_steps = 3 * 60.0 / 0.5 / dt
-print(f"{label},{case},{spheres},{steps},{wall:.4g},{us:.4g},{spheres*steps/wall:.4g},{dt},{three_rev_steps*us*1e-6/3600:.3g}")
+print(f"{label},{case},{spheres},{steps},{wall:.4g},{us:.4g},{spheres*steps/wall:.4g},{dt},{three_rev_steps*us*1e-6/3600:.3g},{builds}")
 PY
 }
 

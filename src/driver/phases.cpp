@@ -133,6 +133,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   sim_.set_profile(opt_.profile && !dev_);
   sim_.reset_profile();
   const double cpu0 = process_cpu_s();
+  const std::uint64_t builds0 = list_builds();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
   if (dev_) run_phase_on_device(p, max_steps, k, below, settled);
@@ -159,8 +160,20 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   log_ << "phase '" << p.name << "' ends at t = " << sim_.time_s() << " s after " << k << " steps";
   log_ << "; wall " << wall << " s, " << (k ? 1e6 * wall / static_cast<double>(k) : 0.0) << " us/step, " << rate
        << " sphere-steps/s";
+  // Neighbour-list builds in the phase (the device list's on the GPU engine): what the skin
+  // costs in this phase, for the benchmarks and the skin choice (docs/gpu.md section 4).
+  const std::uint64_t builds = list_builds() - builds0;
+  if (!dev_) log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
+  {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "; %llu list builds", static_cast<unsigned long long>(builds));
+    log_ << buf;
+    if (builds) {
+      std::snprintf(buf, sizeof buf, " (one per %.1f steps)", static_cast<double>(k) / static_cast<double>(builds));
+      log_ << buf;
+    }
+  }
   if (!dev_) {
-    log_ << ", " << rate / omp_get_max_threads() << " sphere-steps/s/thread";
     // Did the host give every thread a core? Process CPU time over wall time (the step's
     // workers spin between jobs, so a thread that holds a core counts fully): measured, so that
     // timings taken on a busy host say so (issue 18).

@@ -111,6 +111,7 @@ void Runner::sync(bool history) {
 }
 
 double Runner::kinetic_energy_j() { return dev_ && device_current_ ? dev_->kinetic_energy_j() : sim_.kinetic_energy_j(); }
+std::uint64_t Runner::list_builds() const { return dev_ ? dev_->list_builds() : sim_.neighbor_list().builds(); }
 double Runner::translational_kinetic_energy_j() {
   return dev_ && device_current_ ? dev_->translational_kinetic_energy_j() : sim_.translational_kinetic_energy_j();
 }

@@ -91,6 +91,8 @@ class Runner {
   void sync(bool history);
   double kinetic_energy_j();
   double translational_kinetic_energy_j();
+  /// Neighbour-list builds so far: the device list's on the GPU engine, else the CPU list's.
+  std::uint64_t list_builds() const;
 
   const config::CaseConfig& cfg_;
   std::vector<std::string> warnings_;

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
+#include <utility>
 
 #include "test_util.hpp"
 
@@ -28,6 +30,26 @@ std::string gpu_device() {
   return v && std::string(v) == "1" ? "gpu" : "gpu-emulated";
 }
 const std::string kNeedles = source_dir() + "/tests/cases/gpu_needles_tiny.toml";
+
+/// The list builds that run.log's phase lines report ("; N list builds"), summed over the phases,
+/// and the run's total from the finished line (the device list's, or the CPU list's).
+std::pair<long, long> phase_and_total_builds(const std::string& log, bool device) {
+  long phases = 0, total = -1;
+  for (std::size_t p = log.find("phase '"); p != std::string::npos; p = log.find("phase '", p + 1)) {
+    const std::size_t eol = log.find('\n', p);
+    const std::string line = log.substr(p, eol - p);
+    if (line.find(" ends at t = ") == std::string::npos) continue;
+    const std::size_t b = line.find("; ");
+    const std::size_t q = line.find(" list builds");
+    if (b == std::string::npos || q == std::string::npos) return {-1, -1};
+    phases += std::stol(line.substr(line.rfind(' ', q - 1) + 1));
+  }
+  const std::string key = device ? "device neighbour builds " : "neighbour builds ";
+  const std::size_t f = log.find("finished: ");
+  const std::size_t t = f == std::string::npos ? f : log.find(key, f);
+  if (t != std::string::npos) total = std::stol(log.substr(t + key.size()));
+  return {phases, total};
+}
 
 void expect_same_outputs(const std::string& a, const std::string& b) {
   EXPECT_EQ(slurp(a + "/series.csv"), slurp(b + "/series.csv"));
@@ -47,6 +69,13 @@ TEST(GpuRuns, SmallDrumAgreesWithCpuEngine) {
   ASSERT_EQ(rg.status, 0) << rg.output;
   EXPECT_NE(slurp(g + "/run.log").find("engine: GPU engine on "), std::string::npos);
   EXPECT_NE(slurp(g + "/run.log").find("us/step"), std::string::npos);
+  // Each phase line counts its list builds; with the build of the set-up (the first upload or
+  // the first step's list), they add up to the run's total.
+  for (const auto& [dir, device] : {std::pair{c, false}, std::pair{g, true}}) {
+    const auto [phases, total] = phase_and_total_builds(slurp(dir + "/run.log"), device);
+    EXPECT_GT(phases, 5) << dir;
+    EXPECT_EQ(phases + 1, total) << dir;
+  }
   const auto sc = read_csv(c + "/series.csv"), sg = read_csv(g + "/series.csv");
   const auto ac = to_numbers(sc.at("alpha_deg")), ag = to_numbers(sg.at("alpha_deg"));
   const auto kc = to_numbers(sc.at("kinetic_energy_j")), kg = to_numbers(sg.at("kinetic_energy_j"));
