@@ -19,7 +19,8 @@
 #      separately instead of the fused ReduceKickDrift (BIODEM_GPU_FUSE=0); (3f) the needle drum
 #      and the settle drum of (3d) with the bodies kept in the host's order on the device
 #      instead of sorted by cell (BIODEM_GPU_SORT=0); (3g, on a GPU) no CUDA graph capture
-#      failed in the needle drum's run;
+#      failed in the needle drum's run; (3h) a fault injected into the device at step 3,000
+#      (BIODEM_TEST_GPU_FAULT_AT_STEP) ends the run with one error line, not std::terminate;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -211,6 +212,16 @@ if [ "$DEVICE" = gpu ]; then
   else
     record "3g. CUDA graphs captured" PASS "no capture failure in the needle drum's run"
   fi
+fi
+# 3h. A kernel that faults (on a GPU it traps, which breaks the CUDA context; emulated the
+# error it would give) ends the run with one error line and status 2 or 3: not std::terminate
+# from a buffer freed during the unwinding (status 134), nor a run that goes on.
+BIODEM_TEST_GPU_FAULT_AT_STEP=3000 run_biodem needles_fault "$needles" "$OUT/needles_fault" --device "$DEVICE"; sf=$?
+fault_line=$(grep -m1 '^biodem: \(internal \)\?error: ' "$logs/needles_fault.txt" | cut -c1-160)
+if { [ $sf -eq 2 ] || [ $sf -eq 3 ]; } && [ -n "$fault_line" ] && ! grep -q 'terminate called' "$logs/needles_fault.txt"; then
+  record "3h. a device fault ends the run with one line" PASS "status $sf: $fault_line"
+else
+  record "3h. a device fault ends the run with one line" FAIL "status $sf; see logs/needles_fault.txt"
 fi
 settle=tests/cases/biomass_9_6_quick.toml
 run_biodem settle_graph "$settle" "$OUT/settle_graph" --device "$DEVICE"; sc=$?

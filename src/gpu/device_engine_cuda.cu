@@ -7,6 +7,8 @@
 #include <thrust/iterator/transform_iterator.h>
 #include <thrust/system/cuda/execution_policy.h>
 #include <cub/device/device_reduce.cuh>
+#include <thrust/mr/allocator.h>
+#include <thrust/system/cuda/memory_resource.h>
 #include <thrust/system/cuda/vector.h>
 
 #include <chrono>
@@ -75,6 +77,23 @@ inline CachedAllocator& temporary_storage() {
   static CachedAllocator a;
   return a;
 }
+
+/// cudaFree for the engine's buffers, its error ignored. Thrust's own device memory resource
+/// throws when a free fails, and a free fails only once a fault has broken the CUDA context
+/// (every later call then fails): that fault is being reported by the exception that unwinds the
+/// engine, and a second exception thrown from a buffer's destructor during that unwinding would
+/// end the process in std::terminate instead of the one-line error. The cudaGetLastError()
+/// leaves no sticky launch error for the next check to misname.
+inline cudaError_t CUDARTAPI free_quietly(void* p) {
+  if (cudaFree(p) != cudaSuccess) (void)cudaGetLastError();
+  return cudaSuccess;
+}
+/// The memory resource of the engine's buffers: cudaMalloc (a failure throws
+/// thrust::system::detail::bad_alloc, as Thrust's), free_quietly.
+using QuietFreeResource =
+    thrust::system::cuda::detail::cuda_memory_resource<cudaMalloc, free_quietly, thrust::cuda::pointer<void>>;
+template <class T>
+using QuietFreeAllocator = thrust::mr::stateless_resource_allocator<T, QuietFreeResource>;
 
 /// A CUDA error as biodem::Error (one line), after the last launch.
 inline void check_cuda(const char* where) {
@@ -412,6 +431,9 @@ class Timer {
   std::chrono::steady_clock::time_point t0_;
 };
 
+/// BIODEM_TEST_GPU_FAULT_AT_STEP (System::inject_fault).
+__global__ void trap_kernel() { __trap(); }
+
 /// Threads per block of the one-index-per-thread kernels (System::launch): 128 unless
 /// BIODEM_GPU_BLOCK says 32, 64, 128, 256 or 512 (make_engine reads it; docs/gpu.md section 4).
 inline std::uint32_t& launch_block() {
@@ -421,12 +443,18 @@ inline std::uint32_t& launch_block() {
 
 struct System {
   template <class T>
-  using vector = thrust::cuda::vector<T>;
+  using vector = thrust::cuda::vector<T, QuietFreeAllocator<T>>;  // (frees never throw: free_quietly)
   static auto exec() { return thrust::cuda::par(temporary_storage()).on(engine_stream()); }
   /// The same without the stream synchronisation at the end of each algorithm: the engine's
   /// stream keeps the order, the caching allocator hands a block back to a later algorithm on
   /// the same stream only.
   static auto queue() { return thrust::cuda::par_nosync(temporary_storage()).on(engine_stream()); }
+  /// Test hook BIODEM_TEST_GPU_FAULT_AT_STEP: a kernel that traps, which breaks the CUDA
+  /// context; the launch returns, the fault surfaces at the next wait or copy.
+  static void inject_fault() {
+    trap_kernel<<<1, 1, 0, engine_stream()>>>();
+    check_cuda("the injected fault's launch");
+  }
   /// Waits for everything launched on the engine's stream (BIODEM_GPU_PROFILE).
   static void wait() {
     const cudaError_t e = cudaStreamSynchronize(engine_stream());

@@ -14,6 +14,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/parallel.hpp"
 
 #define BIODEM_GPU_NS host_threads
@@ -30,6 +31,11 @@ struct System {
   static auto queue() { return thrust::cpp::par; }
   /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
   static void wait() {}
+  /// Test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on CPU threads a kernel cannot fault the device,
+  /// so the fault is the error a fault on the device would give at the next wait.
+  [[noreturn]] static void inject_fault() {
+    throw Error("GPU engine: CUDA error: the fault injected by BIODEM_TEST_GPU_FAULT_AT_STEP (CPU threads)");
+  }
   /// The list check's reduction, queued before the last step of a run of steps and read at the
   /// check after it (on CUDA it runs meanwhile): here computed when queued, in index order on
   /// the calling thread.

@@ -132,6 +132,16 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_QUEUED_CHECK = '" + std::string(q) + "': expected 0 or 1");
       queued_checks_ = std::string(q) == "1";
     }
+    // Test hook BIODEM_TEST_GPU_FAULT_AT_STEP=N: once the run reaches step N, a kernel faults
+    // (System::inject_fault; on CUDA it breaks the context), so that gpu_check sees a device
+    // fault end the run with one line, not std::terminate (docs/gpu.md, Errors).
+    if (const char* f = std::getenv("BIODEM_TEST_GPU_FAULT_AT_STEP"); f && *f) {
+      char* end = nullptr;
+      const unsigned long long v = std::strtoull(f, &end, 10);
+      if (*end != '\0' || *f == '-' || v == 0)
+        throw Error("BIODEM_TEST_GPU_FAULT_AT_STEP = '" + std::string(f) + "': expected a step number above 0");
+      fault_at_step_ = v;
+    }
     // BIODEM_GPU_PROFILE=1: where the wall time of advance() goes (profile_report(), run.log).
     if (const char* prof = std::getenv("BIODEM_GPU_PROFILE"); prof && *prof) {
       if (std::string(prof) != "0" && std::string(prof) != "1")
@@ -398,6 +408,7 @@ class Engine final : public DeviceEngine {
   neighbor::Domain domain_;
   double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
   double skin_diameters_ = 0.0;  // BIODEM_GPU_SKIN_DIAMETERS (0: the case's skin)
+  std::uint64_t fault_at_step_ = 0;  // BIODEM_TEST_GPU_FAULT_AT_STEP (0: none)
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
   std::uint64_t widenings_ = 0;  // list builds redone with wider rows
@@ -1031,6 +1042,10 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   if (max_steps == 0) {
     r.below = settle_host_.below;
     return r;
+  }
+  if (fault_at_step_ && host_.step_count() >= fault_at_step_) {  // (test hook, above)
+    fault_at_step_ = 0;
+    System::inject_fault();
   }
   const std::uint64_t step0 = host_.step_count(), k0 = settle_host_.k;
   const double t0 = host_.time_s();

@@ -203,7 +203,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   for (const std::string bad : {"BIODEM_GPU_FORCES=rowz", "BIODEM_GPU_SKIN_DIAMETERS=0", "BIODEM_GPU_SKIN_DIAMETERS=2.5",
                                 "BIODEM_GPU_CHECK_EVERY=65", "BIODEM_GPU_CHECK_EVERY=0", "BIODEM_GPU_SORT=-1",
                                 "BIODEM_GPU_FUSE=2", "BIODEM_GPU_PROFILE=yes", "BIODEM_GPU_FORCES=fast",
-                                "BIODEM_GPU_QUEUED_CHECK=2"}) {
+                                "BIODEM_GPU_QUEUED_CHECK=2", "BIODEM_TEST_GPU_FAULT_AT_STEP=x",
+                                "BIODEM_TEST_GPU_FAULT_AT_STEP=0"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -216,6 +217,30 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 " + biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// A fault on the device (test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on a GPU a kernel that traps
+// and breaks the CUDA context; on CPU threads the error such a fault gives) ends the run with
+// one error line, not std::terminate, and the run resumes from its last checkpoint to the same
+// bytes as a run without the fault.
+TEST(GpuRuns, DeviceFaultEndsTheRunWithOneLineAndItResumes) {
+  const std::string whole = fresh_dir("gpu_fault_whole"), d = fresh_dir("gpu_fault");
+  auto r0 = run_command(biodem_exe() + " run " + kNeedles + " --out " + whole + " --device " + gpu_device());
+  ASSERT_EQ(r0.status, 0) << r0.output;
+  auto r1 = run_command("BIODEM_TEST_GPU_FAULT_AT_STEP=3000 " + biodem_exe() + " run " + kNeedles + " --out " + d +
+                        " --device " + gpu_device());
+  EXPECT_TRUE(r1.status == 2 || r1.status == 3) << r1.status << ": " << r1.output;
+  // (On a GPU the fault may surface in a Thrust call: "biodem: internal error: ...", status 3.)
+  EXPECT_TRUE(r1.output.find("biodem: error: ") != std::string::npos ||
+              r1.output.find("biodem: internal error: ") != std::string::npos)
+      << r1.output;
+  EXPECT_EQ(r1.output.find("terminate called"), std::string::npos) << r1.output;
+  EXPECT_EQ(r1.output.find("done: "), std::string::npos) << "the run must stop: " << r1.output;
+  ASSERT_TRUE(fs::exists(d + "/checkpoint.bin"));
+  auto r2 = run_command(biodem_exe() + " run " + kNeedles + " --out " + d + " --resume --device " + gpu_device());
+  ASSERT_EQ(r2.status, 0) << r2.output;
+  expect_same_outputs(whole, d);
+  EXPECT_EQ(slurp(whole + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
 }
 
 // BIODEM_GPU_PROFILE=1 adds one line to run.log saying where the steps' wall time went (step
