@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.hpp"
 #include "sim/simulation.hpp"
 
 namespace biodem::gpu {
@@ -34,6 +35,15 @@ enum class Backend { Cuda, HostThreads };
 
 /// True when this biodem was built with the CUDA engine.
 bool cuda_built();
+
+/// A fault on the device: a kernel faulted and the CUDA context is lost, so nothing more can
+/// run on the device in this process. The engine's fallbacks (a queued list check or settle poll
+/// that cannot be read, a graph that cannot be captured) rethrow it rather than go on, so the
+/// run ends with this one line.
+class DeviceFault : public Error {
+ public:
+  using Error::Error;
+};
 
 class DeviceEngine {
  public:

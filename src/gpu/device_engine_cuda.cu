@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "gpu/device_engine.hpp"
 
 namespace biodem::gpu::cuda_device {
 
@@ -35,6 +36,23 @@ template <class F>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_index(std::uint32_t n, F f) {
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) f(i);
+}
+
+inline cudaStream_t engine_stream();
+
+/// Throws CUDA error e, met in `where`, as one line: a DeviceFault when the context is lost
+/// (a kernel faulted: then every call fails, cudaDeviceSynchronize included), else an Error.
+/// Inside a graph capture nothing is synchronised (that would end the capture): errors there
+/// are the capture's own, and a lost context would have failed the capture's start.
+[[noreturn]] inline void throw_cuda(cudaError_t e, const std::string& where) {
+  const std::string what = where + ": " + cudaGetErrorString(e);
+  cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
+  const bool in_capture = engine_stream() && cudaStreamIsCapturing(engine_stream(), &capturing) == cudaSuccess &&
+                          capturing != cudaStreamCaptureStatusNone;
+  if (!in_capture && cudaDeviceSynchronize() != cudaSuccess)
+    throw DeviceFault("GPU engine: a kernel faulted on the device (CUDA error in " + what +
+                      "); the device cannot go on in this run: --resume continues from the last checkpoint");
+  throw Error("GPU engine: CUDA error in " + what);
 }
 
 /// Temporary storage of Thrust's sorts and reductions, kept between calls: a plain
@@ -52,8 +70,11 @@ class CachedAllocator {
       return p;
     }
     void* p = nullptr;
-    if (cudaMalloc(&p, static_cast<std::size_t>(n)) != cudaSuccess)
+    if (const cudaError_t e = cudaMalloc(&p, static_cast<std::size_t>(n)); e != cudaSuccess) {
+      (void)cudaGetLastError();
+      if (e != cudaErrorMemoryAllocation) throw_cuda(e, "an allocation of temporary storage");
       throw Error("GPU engine: out of device memory (" + std::to_string(n) + " bytes of temporary storage)");
+    }
     used_[static_cast<char*>(p)] = n;
     return static_cast<char*>(p);
   }
@@ -98,7 +119,7 @@ using QuietFreeAllocator = thrust::mr::stateless_resource_allocator<T, QuietFree
 /// A CUDA error as biodem::Error (one line), after the last launch.
 inline void check_cuda(const char* where) {
   const cudaError_t e = cudaGetLastError();
-  if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error after ") + where + ": " + cudaGetErrorString(e));
+  if (e != cudaSuccess) throw_cuda(e, std::string("the launch of ") + where);
 }
 
 /// The stream of every kernel, Thrust algorithm and graph of the engine: created once, blocking
@@ -186,8 +207,7 @@ class Graphs {
     if (!prepare(key, record)) return false;
     const auto it = cache_.find(key);
     const cudaError_t e = cudaGraphLaunch(it->second, engine_stream());
-    if (e != cudaSuccess)
-      throw Error(std::string("GPU engine: CUDA error at a graph launch: ") + cudaGetErrorString(e));
+    if (e != cudaSuccess) throw_cuda(e, "a graph launch");
     return true;
   }
 
@@ -208,11 +228,17 @@ class Graphs {
       e = cudaStreamEndCapture(s, &graph);  // ends the capture whatever happened inside it
     }
     if (e == cudaSuccess && why.empty()) e = cudaGraphInstantiate(&exec, graph, 0);
+    // Uploaded now, so that its first launch (a timed trial's, Tuning) costs no upload.
+    if (e == cudaSuccess && why.empty() && exec) e = cudaGraphUpload(exec, s);
     if (graph) (void)cudaGraphDestroy(graph);
     if (e != cudaSuccess || !why.empty() || !exec) {
       if (why.empty()) why = cudaGetErrorString(e);
       (void)cudaGetLastError();  // capture errors are not sticky: clear it and go on plainly
       if (exec) (void)cudaGraphExecDestroy(exec);
+      exec = nullptr;
+      if (cudaDeviceSynchronize() != cudaSuccess)  // unless a kernel faulted before: then stop
+        throw DeviceFault("GPU engine: a kernel faulted on the device (CUDA graph capture failed: " + why +
+                          "); the device cannot go on in this run: --resume continues from the last checkpoint");
       enabled_ = false;
       std::cerr << "biodem: GPU engine: CUDA graph capture failed (" << why
                 << "); launching the kernels plainly for the rest of the run\n";
@@ -257,10 +283,10 @@ class Staging {
     for (const Item& it : items_)
       if (it.bytes) {
         const cudaError_t e = cudaMemcpyAsync(base + it.offset, it.src, it.bytes, cudaMemcpyDeviceToHost, engine_stream());
-        if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+        if (e != cudaSuccess) throw_cuda(e, "a download");
       }
     const cudaError_t e = cudaStreamSynchronize(engine_stream());
-    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in a download: ") + cudaGetErrorString(e));
+    if (e != cudaSuccess) throw_cuda(e, "a download");
   }
   const void* host(std::size_t item) const { return (pinned_ ? pinned_ : pageable_.data()) + items_[item].offset; }
   void clear() {
@@ -323,7 +349,7 @@ class PendingCopy {
     return *host_;
   }
   void check(cudaError_t e) const {
-    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error in ") + what_ + ": " + cudaGetErrorString(e));
+    if (e != cudaSuccess) throw_cuda(e, what_);
   }
 
  private:
@@ -418,10 +444,10 @@ class Timer {
       return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
     }
     float ms = 0.0f;
-    if (cudaEventRecord(b_, engine_stream()) != cudaSuccess || cudaEventSynchronize(b_) != cudaSuccess ||
-        cudaEventElapsedTime(&ms, a_, b_) != cudaSuccess)
-      throw Error(std::string("GPU engine: CUDA error while timing the contact kernels: ") +
-                  cudaGetErrorString(cudaGetLastError()));
+    cudaError_t e = cudaEventRecord(b_, engine_stream());
+    if (e == cudaSuccess) e = cudaEventSynchronize(b_);
+    if (e == cudaSuccess) e = cudaEventElapsedTime(&ms, a_, b_);
+    if (e != cudaSuccess) throw_cuda(e, "the timing of the contact kernels");
     return 1e-3 * static_cast<double>(ms);
   }
 
@@ -458,7 +484,7 @@ struct System {
   /// Waits for everything launched on the engine's stream (BIODEM_GPU_PROFILE).
   static void wait() {
     const cudaError_t e = cudaStreamSynchronize(engine_stream());
-    if (e != cudaSuccess) throw Error(std::string("GPU engine: CUDA error: ") + cudaGetErrorString(e));
+    if (e != cudaSuccess) throw_cuda(e, "a wait for the device");
   }
   /// One thread per index, launch_block() per block (for_each_index is compiled for blocks of up
   /// to kMostThreadsPerBlock); no host wait.

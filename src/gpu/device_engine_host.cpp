@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "gpu/device_engine.hpp"
 #include "core/parallel.hpp"
 
 #define BIODEM_GPU_NS host_threads
@@ -29,13 +30,22 @@ struct System {
   using vector = thrust::omp::vector<T>;
   static auto exec() { return thrust::cpp::par; }
   static auto queue() { return thrust::cpp::par; }
-  /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
-  static void wait() {}
-  /// Test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on CPU threads a kernel cannot fault the device,
-  /// so the fault is the error a fault on the device would give at the next wait.
-  [[noreturn]] static void inject_fault() {
-    throw Error("GPU engine: CUDA error: the fault injected by BIODEM_TEST_GPU_FAULT_AT_STEP (CPU threads)");
+  /// Test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on CPU threads no kernel can fault, so the fault
+  /// is marked, and the next read of a queued result, wait or download throws what a fault on
+  /// a GPU gives there (the kernels in between still run: no state from them is read).
+  static bool& faulted() {
+    static bool f = false;
+    return f;
   }
+  static void inject_fault() { faulted() = true; }
+  static void throw_if_faulted() {
+    if (faulted())
+      throw DeviceFault("GPU engine: a kernel faulted on the device (the fault injected by "
+                        "BIODEM_TEST_GPU_FAULT_AT_STEP, CPU threads); the device cannot go on in this run: --resume "
+                        "continues from the last checkpoint");
+  }
+  /// Waits for the launched work (BIODEM_GPU_PROFILE): here every launch has returned already.
+  static void wait() { throw_if_faulted(); }
   /// The list check's reduction, queued before the last step of a run of steps and read at the
   /// check after it (on CUDA it runs meanwhile): here computed when queued, in index order on
   /// the calling thread.
@@ -51,7 +61,10 @@ struct System {
       value_ = thrust::transform_reduce(thrust::cpp::par, thrust::counting_iterator<std::uint32_t>(0),
                                         thrust::counting_iterator<std::uint32_t>(n), f, init, op);
     }
-    T get() const { return value_; }
+    T get() const {
+      throw_if_faulted();
+      return value_;
+    }
 
    private:
     T value_{};
@@ -63,7 +76,10 @@ struct System {
     explicit PendingCopy(const char*) {}
     bool prepare() { return false; }
     void enqueue(const T* src) { value_ = *src; }
-    T get() const { return value_; }
+    T get() const {
+      throw_if_faulted();
+      return value_;
+    }
 
    private:
     T value_{};
@@ -100,7 +116,7 @@ struct System {
       src_.push_back(src);
       return src_.size() - 1;
     }
-    void run() {}
+    void run() { throw_if_faulted(); }
     const void* host(std::size_t item) const { return src_[item]; }
     void clear() { src_.clear(); }
 

@@ -659,8 +659,20 @@ inline void Engine::upload() {
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
   steps_until_check_ = 1;  // the first step checks
-  if (ns() && motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{})) invalidate_graphs();
-  if (settle_copy_.prepare()) invalidate_graphs();
+  // The queued list check's and settle poll's buffers (pinned memory, an event); if they cannot
+  // be had, the checks and polls wait for the device instead, for the rest of the run.
+  if (queued_checks_) {
+    try {
+      if (ns() && motion_.prepare(ns(), motion_of_sphere(), MotionMax{}, Motion{})) invalidate_graphs();
+      if (settle_copy_.prepare()) invalidate_graphs();
+    } catch (const DeviceFault&) {
+      throw;
+    } catch (const Error& e) {
+      queued_checks_ = false;
+      invalidate_graphs();
+      std::fprintf(stderr, "biodem: %s; the list checks wait for their reduction for the rest of the run\n", e.what());
+    }
+  }
   if (!host_.forces_current()) {
     // Set-up or after an insertion: forces for the first half kick, without advancing the
     // contact history (this is not a time step), as the CPU engine's refresh().
@@ -1073,7 +1085,9 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
           try {
             settle_host_ = settle_copy_.get();
             read = true;
-          } catch (const Error& e) {  // (a broken context fails the copy below too, and stops the run)
+          } catch (const DeviceFault&) {  // a kernel faulted: nothing can go on (no fallback line)
+            throw;
+          } catch (const Error& e) {
             queued_checks_ = false;
             invalidate_graphs();
             std::fprintf(stderr, "biodem: %s; the list checks wait for their reduction for the rest of the run\n",
@@ -1179,7 +1193,9 @@ inline void Engine::check_list() {
   if (lagged) {
     try {
       m = motion_.get();
-    } catch (const Error& e) {  // (a broken context fails the reduction below too, and stops the run)
+    } catch (const DeviceFault&) {  // a kernel faulted: nothing can go on (no fallback line)
+      throw;
+    } catch (const Error& e) {
       queued_checks_ = false;
       invalidate_graphs();
       std::fprintf(stderr, "biodem: %s; the list checks wait for their reduction for the rest of the run\n", e.what());
