@@ -5,7 +5,7 @@
 #   2. bench/run_gpu_bench.sh on the GPU with BIODEM_GPU_PROFILE=1 (where the whole runs' step
 #      time went: step kernels, list checks, list builds; OUT/profile.txt), with the list checks
 #      waiting for their reduction (BIODEM_GPU_QUEUED_CHECK=0), and for several values of
-#      BIODEM_GPU_FORCES (force kernels),
+#      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
 #      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
 #      last (the spread of the two is the noise).
@@ -63,12 +63,15 @@ results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
-  BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows default}
+# (a setting may set several variables, joined by "+")
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
+  BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()
-  [ "$setting" != default ] && envs=("$setting")
+  [ "$setting" != default ] && IFS=+ read -ra envs <<< "$setting"
   env "${envs[@]}" DEVICE=gpu BIODEM="$BIODEM" OUT="$OUT/s" CPU_THREADS="" timeout 60 bash "$here/run_gpu_bench.sh" $cases > /dev/null 2>&1
   tail -n +2 "$OUT/s/gpu_results.csv" | sed "s/^/$setting,/" >> "$results"
   if [ "$setting" = BIODEM_GPU_PROFILE=1 ]; then  # where the time of the whole runs went

@@ -106,7 +106,8 @@ class DeviceEngine {
   virtual std::uint64_t fused_steps() const = 0;
   /// In a scene whose bodies are all single spheres, the fused steps with the entry kernels also
   /// sum each sphere's contacts inside the body kernel (SumEntriesKickDrift: one launch fewer,
-  /// same bits); this counts those steps.
+  /// same bits); this counts those steps. (The row walk cannot move there: it reads the
+  /// neighbours' positions, which the body kernel's drift changes.)
   virtual std::uint64_t sums_in_kick_steps() const = 0;
   /// The contact forces as one thread per row entry and wall slot (PairEntries) then one per
   /// sphere summing its row and walls in order (SumEntries), or one thread per sphere walking its

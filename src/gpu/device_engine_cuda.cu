@@ -467,6 +467,17 @@ inline std::uint32_t& launch_block() {
   return b;
 }
 
+/// Lanes per row walk (System::launch_walks): 16 unless BIODEM_GPU_ROW_LANES says 1 (one
+/// thread walks the whole row), 2, 4, 8 or 32; log2 of it.
+inline std::uint32_t& row_lanes_log2() {
+  static std::uint32_t l = 4;
+  return l;
+}
+
+/// Row walks with a group of lanes per item (defined after the kernels, below).
+template <class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2);
+
 struct System {
   template <class T>
   using vector = thrust::cuda::vector<T, QuietFreeAllocator<T>>;  // (frees never throw: free_quietly)
@@ -492,6 +503,20 @@ struct System {
   static void launch(std::uint32_t n, const F& f) {
     const std::uint32_t block = launch_block();
     for_each_index<<<(n + block - 1) / block, block, 0, engine_stream()>>>(n, f);
+    check_cuda("a kernel launch");
+  }
+  /// Row walks (kernels.hpp, walk_row) over n items: a group of row lanes per item
+  /// (for_each_walk), or one thread per item when BIODEM_GPU_ROW_LANES=1; no host wait.
+  template <class W>
+  static void launch_walks(std::uint32_t n, const W& w) {
+    const std::uint32_t log2 = row_lanes_log2();
+    if (log2 == 0) {
+      launch(n, w);
+      return;
+    }
+    const std::uint32_t block = launch_block();  // (at least 32: a multiple of the lanes)
+    const std::uint64_t threads = static_cast<std::uint64_t>(n) << log2;
+    for_each_walk<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, 0, engine_stream()>>>(n, w, log2);
     check_cuda("a kernel launch");
   }
   /// Doubles of device memory that sum_into needs: the result, then one per block.
@@ -523,12 +548,64 @@ struct System {
 #include "gpu/engine_impl.hpp"
 
 namespace biodem::gpu::cuda_device {
+
+/// A lane's contact as lane `src` of its group holds it (every lane of the group calls it).
+__device__ inline RowContact shuffled(unsigned mask, const RowContact& r, std::uint32_t src, std::uint32_t lanes) {
+  RowContact o;
+  const int w = static_cast<int>(lanes), l = static_cast<int>(src);
+  o.force.x = __shfl_sync(mask, r.force.x, l, w);
+  o.force.y = __shfl_sync(mask, r.force.y, l, w);
+  o.force.z = __shfl_sync(mask, r.force.z, l, w);
+  o.torque.x = __shfl_sync(mask, r.torque.x, l, w);
+  o.torque.y = __shfl_sync(mask, r.torque.y, l, w);
+  o.torque.z = __shfl_sync(mask, r.torque.z, l, w);
+  o.kind = __shfl_sync(mask, r.kind, l, w);
+  return o;
+}
+
+/// Row walks with a group of 2^lanes_log2 lanes per item (kernels.hpp, walk_row): lane l
+/// evaluates contacts l, l + lanes, ... of the walk (each writes only its own entry or wall
+/// slot), and after each round every lane adds the round's contacts in walk order, taken from
+/// their lanes by shuffles; lane 0 ends the walk. The same contacts, added in the same order with
+/// the same operations as one thread walking the row: the same bits. A group never straddles a
+/// warp (lanes <= 32 divides the block), and its lanes leave together (item and walk_begin are
+/// the group's).
+template <class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2) {
+  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  const std::uint32_t lanes = 1u << lanes_log2, item = t >> lanes_log2, lane = t & (lanes - 1u);
+  if (item >= n) return;
+  WalkStart st;
+  if (!w.walk_begin(item, st)) return;
+  const unsigned first = (threadIdx.x & 31u) & ~(lanes - 1u);
+  const unsigned mask = lanes == 32u ? 0xffffffffu : ((1u << lanes) - 1u) << first;
+  Vec3 f, tq;
+  std::uint32_t count = 0;
+  for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
+    const RowContact mine = w.walk_entry(st, v0 + lane);
+    const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
+    for (std::uint32_t src = 0; src < in_round; ++src) walk_add(shuffled(mask, mine, src, lanes), f, tq, count);
+  }
+  if (lane == 0) w.walk_end(item, st, f, tq, count);
+}
+
+}  // namespace biodem::gpu::cuda_device
+
+namespace biodem::gpu::cuda_device {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   if (const char* b = std::getenv("BIODEM_GPU_BLOCK"); b && *b) {
     const std::string v(b);
     if (v != "32" && v != "64" && v != "128" && v != "256" && v != "512")
       throw Error("BIODEM_GPU_BLOCK = '" + v + "': expected 32, 64, 128, 256 or 512 threads per block");
     launch_block() = static_cast<std::uint32_t>(std::stoul(v));
+  }
+  if (const char* l = std::getenv("BIODEM_GPU_ROW_LANES"); l && *l) {
+    const std::string v(l);
+    const char* const allowed[] = {"1", "2", "4", "8", "16", "32"};
+    std::uint32_t log2 = 0;
+    while (log2 < 6 && v != allowed[log2]) ++log2;
+    if (log2 == 6) throw Error("BIODEM_GPU_ROW_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row walk");
+    row_lanes_log2() = log2;
   }
   int count = 0;
   const cudaError_t err = cudaGetDeviceCount(&count);

@@ -102,6 +102,11 @@ struct System {
     else
       for (std::uint32_t i = 0; i < n; ++i) f(i);
   }
+  /// Row walks (kernels.hpp, walk_row): here one thread walks each item's row.
+  template <class W>
+  static void launch_walks(std::uint32_t n, const W& w) {
+    launch(n, w);
+  }
   /// Doubles of device memory that sum_into needs (the result in the first).
   static std::size_t sum_scratch(std::uint32_t) { return 1; }
   /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the

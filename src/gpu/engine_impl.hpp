@@ -311,6 +311,11 @@ class Engine final : public DeviceEngine {
   void launch(std::uint32_t n, F f) {
     if (n) System::launch(n, f);
   }
+  /// Row walks (Forces) over n items (System::launch_walks).
+  template <class W>
+  void launch_walks(std::uint32_t n, const W& w) {
+    if (n) System::launch_walks(n, w);
+  }
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
   /// before it queued on the device one step before their end (no wait).
@@ -912,7 +917,7 @@ void Engine::launch_forces(const ContactArgs& c) {
     launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
     launch(ns(), SumEntries<Cohesion, Rolling>{c});
   } else {
-    launch(ns(), Forces<Cohesion, Rolling>{c});
+    launch_walks(ns(), Forces<Cohesion, Rolling>{c});
   }
 }
 

@@ -720,48 +720,98 @@ struct PairEntries : ContactArgs {
   }
 };
 
-/// The contact forces on sphere a, one thread per sphere: its pair contacts in the order of the
+/// One contact of a sphere's row walk (Forces): contact v of the walk, v < the row's length the
+/// pair entry v, then the walls in wall order.
+struct RowContact {
+  Vec3 force{}, torque{};
+  std::uint32_t kind = 0;  // 0: none (not touching, or past the walk's end); 1: a pair, the sphere its
+                           // lower-id side; 2: a pair, the higher-id side; 3: a wall
+};
+
+/// Where a row walk starts: the sphere, its stable id, its row's length and the walk's length
+/// (row + walls).
+struct WalkStart {
+  std::uint32_t a = 0, sid_a = 0, len = 0, total = 0;
+};
+
+/// Contact r's share of the walk's sums, exactly as the walk adds it (each pair counted once, by
+/// its lower-id sphere).
+BIODEM_HD inline void walk_add(const RowContact& r, Vec3& f, Vec3& t, std::uint32_t& count) {
+  if (r.kind == 1 || r.kind == 3) {
+    f += r.force;
+    t += r.torque;
+    ++count;
+  } else if (r.kind == 2) {
+    f -= r.force;
+    t += r.torque;
+  }
+}
+
+/// A row walk, item by item (W: Forces): W::walk_begin (false: nothing to do),
+/// then each contact of the walk evaluated (W::walk_entry) and added in walk order, then
+/// W::walk_end with the sums. The contacts of one walk write disjoint memory (their own entry's
+/// history and flag, or their own wall slot), so on a GPU a group of lanes evaluates them at once
+/// and the sums are still added in walk order (System::launch_walks): the same bits.
+template <class W>
+BIODEM_HD inline void walk_row(const W& w, std::uint32_t item) {
+  WalkStart st;
+  if (!w.walk_begin(item, st)) return;
+  Vec3 f, t;
+  std::uint32_t count = 0;
+  for (std::uint32_t v = 0; v < st.total; ++v) walk_add(w.walk_entry(st, v), f, t, count);
+  w.walk_end(item, st, f, t, count);
+}
+
+/// The contact forces on sphere a (one item per sphere): its pair contacts in the order of the
 /// row (stable ids), then its walls in wall order, summed into its force, torque and contact
-/// count. Each pair is evaluated from the side of its lower stable id, by both of its spheres'
-/// threads with identical arithmetic; each thread keeps its own copy of the pair's history, and
-/// the copies stay bit-identical.
-/// - FromEntries = false (`Forces`): the thread evaluates each contact itself, walking its row
-///   (BIODEM_GPU_FORCES=rows).
-/// - FromEntries = true (`SumEntries`): after PairEntries, the thread reads the touching entries'
-///   and walls' results from the per-entry buffers. The same operations in the same order, so
-///   the same bits.
-template <bool Cohesion, bool Rolling, bool FromEntries>
-struct SphereContacts : ContactArgs {
+/// count (BIODEM_GPU_FORCES=rows). Each pair is evaluated from the side of its lower stable id,
+/// in both of its spheres' walks with identical arithmetic; each walk keeps its own copy of the
+/// pair's history in its entry, and the copies stay bit-identical. One thread per sphere walks
+/// the whole row, or (CUDA) a group of lanes per sphere evaluates the contacts at once and adds
+/// them in walk order (System::launch_walks, BIODEM_GPU_ROW_LANES).
+template <bool Cohesion, bool Rolling>
+struct Forces : ContactArgs {
+  BIODEM_HD bool walk_begin(std::uint32_t a, WalkStart& st) const {
+    if (halted(halt)) return false;
+    st.a = a;
+    st.sid_a = s.sid[a];
+    st.len = rows.length[a];
+    st.total = st.len + n_walls;
+    return true;
+  }
+  BIODEM_HD RowContact walk_entry(const WalkStart& st, std::uint32_t v) const {
+    RowContact r;
+    if (v < st.len) {
+      bool a_low = false;
+      if (pair_entry<Cohesion, Rolling>(st.a, st.sid_a, v * n + st.a, r.force, r.torque, a_low)) r.kind = a_low ? 1 : 2;
+    } else if (v < st.total) {
+      if (wall_entry<Cohesion, Rolling>(st.a, v - st.len, r.force, r.torque)) r.kind = 3;
+    }
+    return r;
+  }
+  BIODEM_HD void walk_end(std::uint32_t, const WalkStart& st, const Vec3& f, const Vec3& t, std::uint32_t count) const {
+    s.force[st.a] = f;
+    s.torque[st.a] = t;
+    s.contacts[st.a] = count;
+  }
+  BIODEM_HD void operator()(std::uint32_t a) const { walk_row(*this, a); }
+};
+
+/// Sphere a's contact sums from the entry buffers of PairEntries (BIODEM_GPU_FORCES=entries):
+/// the touching entries' and walls' results, read in row order then wall order, with the
+/// operations of the row walk (Forces), so the same bits.
+template <bool Cohesion, bool Rolling>
+struct SumEntries : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t a) const {
     if (halted(halt)) return;
     Vec3 f, t;
     std::uint32_t count = 0;
-    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
-    if constexpr (FromEntries) {
-      sum_entries(a, sid_a, len, f, t, count);
-    } else {
-      for (std::uint32_t q = 0; q < len; ++q) {
-        Vec3 fl, ta;
-        bool a_low = false;
-        if (pair_entry<Cohesion, Rolling>(a, sid_a, q * n + a, fl, ta, a_low)) add_pair(fl, ta, a_low, f, t, count);
-      }
-      for (std::uint32_t w = 0; w < n_walls; ++w) {
-        Vec3 fw, tw;
-        if (!wall_entry<Cohesion, Rolling>(a, w, fw, tw)) continue;
-        f += fw;
-        t += tw;
-        ++count;
-      }
-    }
+    sum_entries(a, s.sid[a], rows.length[a], f, t, count);
     s.force[a] = f;
     s.torque[a] = t;
     s.contacts[a] = count;
   }
 };
-template <bool Cohesion, bool Rolling>
-using Forces = SphereContacts<Cohesion, Rolling, false>;
-template <bool Cohesion, bool Rolling>
-using SumEntries = SphereContacts<Cohesion, Rolling, true>;
 
 /// Force on body k (gravity plus its spheres' contact forces, in template order) and torque
 /// about its centre of mass (ReduceKick, ReduceKickDrift).

@@ -219,6 +219,23 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
+// The switches only the CUDA engine reads (BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES) are checked
+// before it looks for a device: with `--device gpu`, a bad value is one line naming it in a
+// CUDA build (here, without a GPU, before "no CUDA-capable GPU"), and a build without CUDA says
+// so; nothing is written either way.
+TEST(GpuRuns, CudaSwitchesAreCheckedBeforeTheDevice) {
+  for (const std::string bad : {"BIODEM_GPU_BLOCK=100", "BIODEM_GPU_ROW_LANES=3", "BIODEM_GPU_ROW_LANES=64"}) {
+    const std::string d = fresh_dir("gpu_bad_cuda_switch");
+    auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device gpu");
+    const std::string name = bad.substr(0, bad.find('='));
+    EXPECT_EQ(r.status, 2) << bad << ": " << r.output;
+    EXPECT_TRUE(r.output.find(name + " = '") != std::string::npos ||
+                r.output.find("built without the CUDA engine") != std::string::npos)
+        << bad << ": " << r.output;
+    EXPECT_FALSE(fs::exists(d + "/run.log")) << bad;
+  }
+}
+
 // A fault on the device (test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on a GPU a kernel that traps
 // and breaks the CUDA context; on CPU threads the error such a fault gives) ends the run with
 // one error line, not std::terminate, and the run resumes from its last checkpoint to the same
