@@ -105,24 +105,40 @@ struct SpheresFromBodies {
   }
 };
 
-/// The spheres of body k (centres, velocities, spins) from the body's state in memory, with the
-/// same formula as SpheresFromBodies (bit for bit: the rotation matrix is a function of the
-/// orientation only).
-BIODEM_HD inline void spheres_of_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k) {
-  const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+/// The spheres s0 .. s0 + ns - 1 of a body (centres, velocities, spins) from the body's centre
+/// x, velocity v, spin w and orientation q, held by the caller (in registers: not read back from
+/// the body arrays it has just written), with the formula of SpheresFromBodies (bit for bit:
+/// the rotation matrix is a function of the orientation only). The offsets are loaded a chunk at
+/// a time before the chunk's stores, so that a GPU thread waits for them once per chunk.
+BIODEM_HD inline void spheres_of_body(const SphereArrays& s, std::uint32_t s0, std::uint32_t ns, const Vec3& x,
+                                      const Vec3& v, const Vec3& w, const Quat& q) {
   if (ns == 1 && s.offset[s0] == Vec3{}) {
-    s.position[s0] = b.position[k];
-    s.velocity[s0] = b.velocity[k];
-    s.omega[s0] = b.omega[k];
+    s.position[s0] = x;
+    s.velocity[s0] = v;
+    s.omega[s0] = w;
     return;
   }
-  const Mat3 R = to_matrix(b.orientation[k]);
-  for (std::uint32_t i = s0; i < s0 + ns; ++i) sphere_from_body(b, s, k, i, R);
+  const Mat3 R = to_matrix(q);
+  constexpr std::uint32_t kChunk = 4;
+  for (std::uint32_t c0 = 0; c0 < ns; c0 += kChunk) {
+    Vec3 offset[kChunk];
+    for (std::uint32_t c = 0; c < kChunk; ++c)
+      if (c0 + c < ns) offset[c] = s.offset[s0 + c0 + c];
+    for (std::uint32_t c = 0; c < kChunk && c0 + c < ns; ++c) {
+      const std::uint32_t i = s0 + c0 + c;
+      const Vec3 arm = R * offset[c];
+      s.position[i] = x + arm;
+      s.velocity[i] = v + cross(w, arm);
+      s.omega[i] = w;
+    }
+  }
 }
 
 /// The first part of a step, one thread per body (kick-drift and sphere update fused): half
 /// kick, drift and free-rotor rotation of body k (the CPU engine's step, parts 1-2, same
-/// arithmetic), then its spheres (spheres_of_body).
+/// arithmetic), then its spheres (spheres_of_body). The body's state is loaded into registers,
+/// integrated there and stored once (the same operations on the same values as integrating it
+/// in place in memory).
 struct KickDriftSpheres {
   BodyArrays b;
   SphereArrays s;
@@ -130,9 +146,18 @@ struct KickDriftSpheres {
   const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
-    integrate::kick_and_drift(b.position[k], b.velocity[k], b.omega[k], b.ang_momentum[k], b.orientation[k], b.mass[k],
-                              b.inertia[k], b.sphere_count[k], b.force[k], b.torque[k], h, dt);
-    spheres_of_body(b, s, k);
+    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
+    Vec3 x = b.position[k], v = b.velocity[k], w = b.omega[k], l = b.ang_momentum[k];
+    Quat q = b.orientation[k];
+    const double m = b.mass[k];
+    const Vec3 inertia = b.inertia[k], f = b.force[k], t = b.torque[k];
+    integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
+    b.position[k] = x;
+    b.velocity[k] = v;
+    b.omega[k] = w;
+    b.ang_momentum[k] = l;
+    b.orientation[k] = q;
+    spheres_of_body(s, s0, ns, x, v, w, q);
   }
 };
 
@@ -863,16 +888,18 @@ struct ReduceKickDrift {
   const std::uint32_t* halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
-    const std::uint32_t ns = b.sphere_count[k];
+    // Every load of the body's state before the first store (its force), so that none waits
+    // behind a store it might alias; then the halves in registers and the state stored once.
+    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
     const double m = b.mass[k];
     Vec3 x = b.position[k];
+    const Vec3 inertia = b.inertia[k];
+    Vec3 v = b.velocity[k], w = b.omega[k], l = b.ang_momentum[k];
+    Quat q = b.orientation[k];
     Vec3 f, t;
     body_sums(b, s, k, gravity, f, t);
     b.force[k] = f;
     b.torque[k] = t;
-    const Vec3 inertia = b.inertia[k];
-    Vec3 v = b.velocity[k], w = b.omega[k], l = b.ang_momentum[k];
-    Quat q = b.orientation[k];
     integrate::half_kick(v, w, l, q, m, inertia, ns, f, t, h);
     integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
     b.position[k] = x;
@@ -880,7 +907,7 @@ struct ReduceKickDrift {
     b.omega[k] = w;
     b.ang_momentum[k] = l;
     b.orientation[k] = q;
-    spheres_of_body(b, s, k);
+    spheres_of_body(s, s0, ns, x, v, w, q);
   }
 };
 
