@@ -840,15 +840,28 @@ struct SumEntries : ContactArgs {
 
 /// Force on body k (gravity plus its spheres' contact forces, in template order) and torque
 /// about its centre of mass (ReduceKick, ReduceKickDrift).
+/// The spheres' force, torque and centre are loaded four spheres at a time, every load of a chunk
+/// before its first addition (a GPU thread waits for memory once per chunk); the additions stay
+/// in template order.
 BIODEM_HD inline void body_sums(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, const Vec3& gravity, Vec3& f,
                                 Vec3& t) {
   const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
   const Vec3 x = b.position[k];
   f = b.mass[k] * gravity;
   t = Vec3{};
-  for (std::uint32_t i = s0; i < s0 + ns; ++i) {
-    f += s.force[i];
-    t += s.torque[i] + cross(s.position[i] - x, s.force[i]);
+  constexpr std::uint32_t kChunk = 4;
+  for (std::uint32_t c0 = 0; c0 < ns; c0 += kChunk) {
+    Vec3 fs[kChunk], ts[kChunk], ps[kChunk];
+    for (std::uint32_t c = 0; c < kChunk; ++c)
+      if (c0 + c < ns) {
+        fs[c] = s.force[s0 + c0 + c];
+        ts[c] = s.torque[s0 + c0 + c];
+        ps[c] = s.position[s0 + c0 + c];
+      }
+    for (std::uint32_t c = 0; c < kChunk && c0 + c < ns; ++c) {
+      f += fs[c];
+      t += ts[c] + cross(ps[c] - x, fs[c]);
+    }
   }
 }
 
