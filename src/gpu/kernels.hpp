@@ -576,10 +576,25 @@ struct ContactArgs {
   template <bool Cohesion, bool Rolling>
   BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
                             bool& a_low, Vec3* torque_b = nullptr) const {
+    // The loads in as few dependent rounds as the data allow (on a GPU each round is a wait for
+    // memory): the entry (neighbour, its stable id, the touching flag), then everything of the
+    // two spheres that the contact may need, with the history of a contact that was touching
+    // (the usual case of a touching pair), all before the cut-off test; the pair's parameters
+    // (a small table, cached) and a new contact's history after it. Loads only: the arithmetic
+    // and its order are unchanged.
     const std::uint32_t b = rows.j[k];
-    a_low = sid_a < rows.sid[k];
+    const std::uint32_t sid_b = rows.sid[k];
+    const bool was_touching = rows.touching[k] != 0;
+    a_low = sid_a < sid_b;
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
-    Vec3 d = s.position[i] - s.position[j];
+    const Vec3 pi = s.position[i], pj = s.position[j];
+    const double ri = s.radius[i], rj = s.radius[j];
+    const double mi = s.body_mass[i], mj = s.body_mass[j];
+    const Vec3 vi = s.velocity[i], vj = s.velocity[j], wi = s.omega[i], wj = s.omega[j];
+    const std::uint32_t mat_i = s.material[i], mat_j = s.material[j];
+    contact::ContactHistory h{};
+    if (was_touching) h = rows.history[k];
+    Vec3 d = pi - pj;
     if (periodic) {
       const std::int32_t c = rows.image[k];
       const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
@@ -588,21 +603,21 @@ struct ContactArgs {
       d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
                 static_cast<double>(sz) * period.z};
     }
-    const double ri = s.radius[i], rj = s.radius[j];
     const double dist2 = norm2(d), rsum = ri + rj;
     if (dist2 >= rsum * rsum) {
-      if (rows.touching[k]) {
+      if (was_touching) {
         rows.touching[k] = 0;
         rows.history[k] = contact::ContactHistory{};
       }
       return false;
     }
+    if (!was_touching) h = rows.history[k];
+    const contact::PairParams p = pairs[mat_i * n_materials + mat_j];
     const double dist = sqrt(dist2);
-    const contact::ContactGeometry geo = contact::sphere_sphere_geometry(
-        d, dist, ri, rj, s.body_mass[i], s.body_mass[j], s.velocity[i], s.velocity[j], s.omega[i], s.omega[j]);
-    const contact::PairParams& p = pairs[s.material[i] * n_materials + s.material[j]];
+    const contact::ContactGeometry geo = contact::sphere_sphere_geometry(d, dist, ri, rj, mi, mj, vi, vj, wi, wj);
     const double area = Cohesion ? contact::sjkr_area_sphere_sphere(ri, rj, dist) : 0.0;
-    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, rows.history[k], area, dt);
+    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, h, area, dt);
+    rows.history[k] = h;
     rows.touching[k] = 1;
     force_low = out.force_i;
     torque_a = a_low ? out.torque_i : out.torque_j;
@@ -674,26 +689,35 @@ struct ContactArgs {
   /// with the force and torque on a; false (history reset) otherwise.
   template <bool Cohesion, bool Rolling>
   BIODEM_HD bool wall_entry(std::uint32_t a, std::uint32_t w, Vec3& force, Vec3& torque) const {
+    // As pair_entry: the sphere's data, the slot's flag and a touching contact's history loaded
+    // before the wall test; the arithmetic and its order unchanged.
+    const std::uint32_t slot = w * n + a;
+    const bool was_touching = wall_touching[slot] != 0;
     const Vec3 xa = s.position[a];
-    const double ra = s.radius[a];
+    const double ra = s.radius[a], ma = s.body_mass[a];
+    const Vec3 va = s.velocity[a], wa = s.omega[a];
+    const std::uint32_t mat_a = s.material[a];
+    contact::ContactHistory h{};
+    if (was_touching) h = wall_history[slot];
     const DeviceWall& ws = walls[w];
     const walls::WallHit hit = walls::wall_hit(ws.geometry, xa, ra);
-    const std::uint32_t slot = w * n + a;
     if (!hit.touching) {
-      if (wall_touching[slot]) {
+      if (was_touching) {
         wall_touching[slot] = 0;
         wall_history[slot] = contact::ContactHistory{};
       }
       return false;
     }
+    if (!was_touching) h = wall_history[slot];
     const Vec3 surface_point = xa - hit.gap_m * hit.normal;
     const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
     const Vec3 w_wall = wall_rolling_lab ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
-    const contact::ContactGeometry geo = contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, s.body_mass[a],
-                                                                       s.velocity[a], s.omega[a], v_wall, w_wall);
-    const contact::PairParams& p = pairs[s.material[a] * n_materials + ws.material];
+    const contact::ContactGeometry geo =
+        contact::sphere_wall_geometry(hit.normal, hit.gap_m, ra, ma, va, wa, v_wall, w_wall);
+    const contact::PairParams p = pairs[mat_a * n_materials + ws.material];
     const double area = Cohesion ? contact::sjkr_area_sphere_wall(ra, hit.gap_m) : 0.0;
-    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, wall_history[slot], area, dt);
+    const contact::ContactOutput out = contact::evaluate_contact<Cohesion, Rolling>(geo, p, h, area, dt);
+    wall_history[slot] = h;
     wall_touching[slot] = 1;
     force = out.force_i;
     torque = out.torque_i;
