@@ -44,7 +44,7 @@ for r in rows:
     if r.get("Metric Name") != "gpu__time_duration.sum":
         continue
     name = r["Kernel Name"]
-    m = re.search(r"(SphereContacts<[^>]*>|Forces<[^>]*>|ReduceKickDrift|KickDriftSpheres|ReduceKick|SettleUpdate|block_sums|sum_blocks|"
+    m = re.search(r"(SumEntries<[^>]*>|Forces<[^>]*>|ReduceKickDrift|KickDriftSpheres|ReduceKick|SettleUpdate|block_sums|sum_blocks|"
                   r"DeviceReduce\w*|DeviceRadixSort\w*|DeviceScan\w*|DeviceMergeSort\w*|[A-Z][A-Za-z]+)", name)
     key = (m.group(1) if m else name[:40]) + f" [{r['Grid Size']}x{r['Block Size']}]"
     v = float(r["Metric Value"].replace(",", ""))
@@ -63,7 +63,7 @@ results="$OUT/sweep.csv"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
-# (a setting may set several variables, joined by "+")
+# (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \

@@ -21,6 +21,8 @@
 #      instead of sorted by cell (BIODEM_GPU_SORT=0); (3g, on a GPU) no CUDA graph capture
 #      failed in the needle drum's run; (3h) a fault injected into the device at step 3,000
 #      (BIODEM_TEST_GPU_FAULT_AT_STEP) ends the run with one error line, not std::terminate;
+#      (3i) each contact kernel set forced, and on a GPU the row walk with 1, 2 and 32 lanes
+#      and blocks of 32 and 512 threads, byte-identical to (3);
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
@@ -224,6 +226,33 @@ if { [ $sf -eq 2 ] || [ $sf -eq 3 ]; } && [ -n "$fault_line" ] && ! grep -q 'ter
 else
   record "3h. a device fault ends the run with one line" FAIL "status $sf; see logs/needles_fault.txt"
 fi
+# 3i. The two contact kernel sets forced give the bytes of (3); on a GPU also the row walk with
+# 1, 2 and 32 lanes per sphere, each with blocks of 32 and 512 threads (the default: 16 lanes,
+# 128 threads; emulated these switches change nothing and are not run).
+BIODEM_GPU_FORCES=rows run_biodem needles_rows "$needles" "$OUT/needles_rows" --device "$DEVICE"; sr=$?
+BIODEM_GPU_FORCES=entries run_biodem needles_entries "$needles" "$OUT/needles_entries" --device "$DEVICE"; se=$?
+lanes_ok=1; d1=""; d2=""; d=""
+lanes_detail="rows and entries forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt)"
+elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2)"
+fi
+if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
+  for lanes in 1 2 32; do
+    for block in 32 512; do
+      BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=$lanes BIODEM_GPU_BLOCK=$block \
+        run_biodem "needles_lanes${lanes}_block$block" "$needles" "$OUT/needles_lanes${lanes}_block$block" --device gpu
+      if [ $? -ne 0 ]; then
+        lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block: run failed"
+      elif ! d=$(same_files "$OUT/needles_rows" "$OUT/needles_lanes${lanes}_block$block"); then
+        lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block differ: $(echo $d)"
+      fi
+    done
+  done
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 32 lanes x blocks of 32, 512 byte-identical to 16 lanes, 128"
+fi
+[ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 settle=tests/cases/biomass_9_6_quick.toml
 run_biodem settle_graph "$settle" "$OUT/settle_graph" --device "$DEVICE"; sc=$?
 BIODEM_GPU_GRAPH=0 run_biodem settle_plain "$settle" "$OUT/settle_plain" --device "$DEVICE"; sd=$?

@@ -1,5 +1,6 @@
 #include "gpu/device_engine.hpp"
 
+#include <cstdlib>
 #include <string>
 
 #include "core/error.hpp"
@@ -23,7 +24,27 @@ bool cuda_built() {
 #endif
 }
 
+LaunchSwitches launch_switches() {
+  LaunchSwitches sw;
+  if (const char* b = std::getenv("BIODEM_GPU_BLOCK"); b && *b) {
+    const std::string v(b);
+    if (v != "32" && v != "64" && v != "128" && v != "256" && v != "512")
+      throw Error("BIODEM_GPU_BLOCK = '" + v + "': expected 32, 64, 128, 256 or 512 threads per block");
+    sw.block = static_cast<std::uint32_t>(std::stoul(v));
+  }
+  if (const char* l = std::getenv("BIODEM_GPU_ROW_LANES"); l && *l) {
+    const std::string v(l);
+    const char* const allowed[] = {"1", "2", "4", "8", "16", "32"};
+    std::uint32_t log2 = 0;
+    while (log2 < 6 && v != allowed[log2]) ++log2;
+    if (log2 == 6) throw Error("BIODEM_GPU_ROW_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row walk");
+    sw.row_lanes_log2 = log2;
+  }
+  return sw;
+}
+
 std::unique_ptr<DeviceEngine> make_device_engine(Backend backend, sim::Simulation& host) {
+  (void)launch_switches();  // checked for both backends (the CUDA engine applies them)
   // What the GPU engine does not do yet stops the run before anything is computed.
   for (std::size_t w = 0; w < host.walls().size(); ++w)
     if (host.walls()[w].translates())

@@ -36,6 +36,18 @@ enum class Backend { Cuda, HostThreads };
 /// True when this biodem was built with the CUDA engine.
 bool cuda_built();
 
+/// The CUDA engine's launch switches, read from the environment and checked by
+/// make_device_engine for either backend (a bad value stops a run on CPU threads too, before
+/// anything is computed), applied by the CUDA engine: BIODEM_GPU_BLOCK (threads per block of
+/// the one-index kernels: 32, 64, 128, 256, 512) and BIODEM_GPU_ROW_LANES (lanes per row walk:
+/// 1, 2, 4, 8, 16, 32).
+struct LaunchSwitches {
+  std::uint32_t block = 128;
+  std::uint32_t row_lanes_log2 = 4;  // 16 lanes
+};
+/// Throws Error naming the variable when a value is not one of those listed.
+LaunchSwitches launch_switches();
+
 /// A fault on the device: a kernel faulted and the CUDA context is lost, so nothing more can
 /// run on the device in this process. The engine's fallbacks (a queued list check or settle poll
 /// that cannot be read, a graph that cannot be captured) rethrow it rather than go on, so the

@@ -40,17 +40,39 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_index(std::uint
 
 inline cudaStream_t engine_stream();
 
-/// Throws CUDA error e, met in `where`, as one line: a DeviceFault when the context is lost
-/// (a kernel faulted: then every call fails, cudaDeviceSynchronize included), else an Error.
-/// Inside a graph capture nothing is synchronised (that would end the capture): errors there
-/// are the capture's own, and a lost context would have failed the capture's start.
+/// The errors that leave the CUDA context unusable (a kernel faulted): every later call fails.
+inline bool context_lost(cudaError_t e) {
+  switch (e) {
+    case cudaErrorIllegalAddress:
+    case cudaErrorLaunchFailure:
+    case cudaErrorIllegalInstruction:
+    case cudaErrorMisalignedAddress:
+    case cudaErrorInvalidAddressSpace:
+    case cudaErrorInvalidPc:
+    case cudaErrorHardwareStackError:
+    case cudaErrorAssert:
+    case cudaErrorLaunchTimeout:
+    case cudaErrorECCUncorrectable:
+    case cudaErrorContextIsDestroyed:
+      return true;
+    default:
+      return false;
+  }
+}
+
+/// Throws CUDA error e, met in `where`, as one line: a DeviceFault when e, or what a wait for the
+/// device then returns, says the context is lost (a kernel faulted), else an Error. Inside a
+/// graph capture nothing waits (that would end the capture): errors there are the capture's own,
+/// and a lost context would have failed the capture's start.
 [[noreturn]] inline void throw_cuda(cudaError_t e, const std::string& where) {
   const std::string what = where + ": " + cudaGetErrorString(e);
   cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
   const bool in_capture = engine_stream() && cudaStreamIsCapturing(engine_stream(), &capturing) == cudaSuccess &&
                           capturing != cudaStreamCaptureStatusNone;
-  if (!in_capture && cudaDeviceSynchronize() != cudaSuccess)
+  const cudaError_t later = context_lost(e) || in_capture ? cudaSuccess : cudaDeviceSynchronize();
+  if (context_lost(e) || context_lost(later))
     throw DeviceFault("GPU engine: a kernel faulted on the device (CUDA error in " + what +
+                      (context_lost(e) ? std::string() : std::string(", then ") + cudaGetErrorString(later)) +
                       "); the device cannot go on in this run: --resume continues from the last checkpoint");
   throw Error("GPU engine: CUDA error in " + what);
 }
@@ -236,9 +258,11 @@ class Graphs {
       (void)cudaGetLastError();  // capture errors are not sticky: clear it and go on plainly
       if (exec) (void)cudaGraphExecDestroy(exec);
       exec = nullptr;
-      if (cudaDeviceSynchronize() != cudaSuccess)  // unless a kernel faulted before: then stop
-        throw DeviceFault("GPU engine: a kernel faulted on the device (CUDA graph capture failed: " + why +
+      if (const cudaError_t later = cudaDeviceSynchronize(); context_lost(later))  // a kernel faulted before: stop
+        throw DeviceFault("GPU engine: a kernel faulted on the device (CUDA graph capture failed: " + why + ", then " +
+                          cudaGetErrorString(later) +
                           "); the device cannot go on in this run: --resume continues from the last checkpoint");
+      (void)cudaGetLastError();
       enabled_ = false;
       std::cerr << "biodem: GPU engine: CUDA graph capture failed (" << why
                 << "); launching the kernels plainly for the rest of the run\n";
@@ -516,6 +540,9 @@ struct System {
     }
     const std::uint32_t block = launch_block();  // (at least 32: a multiple of the lanes)
     const std::uint64_t threads = static_cast<std::uint64_t>(n) << log2;
+    if (threads > 0xffffffffull)  // (thread indices are 32-bit)
+      throw Error("GPU engine: " + std::to_string(n) + " row walks of " + std::to_string(1u << log2) +
+                  " lanes exceed 2^32 threads; set BIODEM_GPU_ROW_LANES lower");
     for_each_walk<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, 0, engine_stream()>>>(n, w, log2);
     check_cuda("a kernel launch");
   }
@@ -593,19 +620,10 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
 
 namespace biodem::gpu::cuda_device {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
-  if (const char* b = std::getenv("BIODEM_GPU_BLOCK"); b && *b) {
-    const std::string v(b);
-    if (v != "32" && v != "64" && v != "128" && v != "256" && v != "512")
-      throw Error("BIODEM_GPU_BLOCK = '" + v + "': expected 32, 64, 128, 256 or 512 threads per block");
-    launch_block() = static_cast<std::uint32_t>(std::stoul(v));
-  }
-  if (const char* l = std::getenv("BIODEM_GPU_ROW_LANES"); l && *l) {
-    const std::string v(l);
-    const char* const allowed[] = {"1", "2", "4", "8", "16", "32"};
-    std::uint32_t log2 = 0;
-    while (log2 < 6 && v != allowed[log2]) ++log2;
-    if (log2 == 6) throw Error("BIODEM_GPU_ROW_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row walk");
-    row_lanes_log2() = log2;
+  {
+    const LaunchSwitches sw = launch_switches();  // (checked: BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES)
+    launch_block() = sw.block;
+    row_lanes_log2() = sw.row_lanes_log2;
   }
   int count = 0;
   const cudaError_t err = cudaGetDeviceCount(&count);

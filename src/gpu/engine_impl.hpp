@@ -803,6 +803,10 @@ inline void Engine::build_list(const Box* known_box) {
     cap = longest + longest / 4 + 1;
     ++widenings_;
   }
+  // The kernels over entries and wall slots index them by a 32-bit (q * n + sphere).
+  if ((static_cast<std::uint64_t>(rows_.cap) + n_walls_) * n > 0xffffffffull)
+    throw Error("GPU engine: " + std::to_string(n) + " spheres with neighbour rows of " + std::to_string(rows_.cap) +
+                " entries and " + std::to_string(n_walls_) + " walls exceed 2^32 entries (32-bit indices)");
   // Each pair's other entry, for PairEntries (which evaluates a pair once, from its lower-id side).
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
