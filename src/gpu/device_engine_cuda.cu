@@ -532,8 +532,8 @@ struct System {
   /// Row walks (kernels.hpp, walk_row) over n items: a group of row lanes per item
   /// (for_each_walk), or one thread per item when BIODEM_GPU_ROW_LANES=1; no host wait.
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w) {
-    const std::uint32_t log2 = row_lanes_log2();
+  static void launch_walks(std::uint32_t n, const W& w, bool single) {
+    const std::uint32_t log2 = single ? 0u : row_lanes_log2();
     if (log2 == 0) {
       launch(n, w);
       return;
@@ -546,6 +546,8 @@ struct System {
     for_each_walk<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, 0, engine_stream()>>>(n, w, log2);
     check_cuda("a kernel launch");
   }
+  /// The row lanes, as run.log names them.
+  static std::string walk_lanes() { return std::to_string(1u << row_lanes_log2()) + " lanes per sphere"; }
   /// Doubles of device memory that sum_into needs: the result, then one per block.
   static std::size_t sum_scratch(std::uint32_t n) { return 1 + (n + kSumBlock - 1) / kSumBlock; }
   /// out[0] = the sum of f(i) over i < n, left in device memory (no host wait): block sums of a

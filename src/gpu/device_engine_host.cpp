@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/error.hpp"
@@ -102,11 +103,13 @@ struct System {
     else
       for (std::uint32_t i = 0; i < n; ++i) f(i);
   }
-  /// Row walks (kernels.hpp, walk_row): here one thread walks each item's row.
+  /// Row walks (kernels.hpp, walk_row): here one thread walks each item's row, whether or not
+  /// `single` (one thread per item) is asked.
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w) {
+  static void launch_walks(std::uint32_t n, const W& w, bool /*single*/) {
     launch(n, w);
   }
+  static std::string walk_lanes() { return "row lanes (on CPU threads, one thread per sphere too)"; }
   /// Doubles of device memory that sum_into needs (the result in the first).
   static std::size_t sum_scratch(std::uint32_t) { return 1; }
   /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the

@@ -193,11 +193,14 @@ class Engine final : public DeviceEngine {
     if (!timed_choice())
       return set + ", by the sphere count (" + (use_entry_kernels() ? "below " : "at least ") +
              std::to_string(kEntryForcesBelow) + ")";
-    if (tuning_under_way()) return set + " for now: the timing of both sets is under way";
-    return set + ", the faster when both were timed over the first " + std::to_string(tuning_.steps) +
-           " steps after the last upload (median of " + std::to_string(kTuneIntervals / 2) +
-           " runs each): per-contact " + us(tuning_.median[1]) + " us/step, row walk " + us(tuning_.median[0]) +
-           " us/step (" + std::to_string(tuning_.uploads) + " choice(s) in the run)";
+    if (tuning_under_way()) return set + " for now: the timing of the sets is under way";
+    const double walk = std::min(tuning_.median[1], tuning_.median[2]);
+    return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
+           ", the fastest when the sets were timed over the first " + std::to_string(tuning_.steps) +
+           " steps after the last upload (median of " + std::to_string(kTuneIntervals / kTuneSets) +
+           " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
+           System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
+           ") (" + std::to_string(tuning_.uploads) + " choice(s) in the run)";
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
@@ -314,7 +317,7 @@ class Engine final : public DeviceEngine {
   /// Row walks (Forces) over n items (System::launch_walks).
   template <class W>
   void launch_walks(std::uint32_t n, const W& w) {
-    if (n) System::launch_walks(n, w);
+    if (n) System::launch_walks(n, w, walk_single());
   }
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
@@ -430,25 +433,29 @@ class Engine final : public DeviceEngine {
   enum class ForcesMode { automatic, entries, rows, timed };
   ForcesMode forces_mode_ = ForcesMode::automatic;
   /// The choice of the contact kernels by timing (BIODEM_GPU_FORCES=timed, and auto on a GPU):
-  /// after each upload the first kTuneIntervals runs of steps between list checks alternate the
-  /// two kernel sets (entries first), each run timed on the device (System::Timer); then the set
-  /// with the lower median time per step runs until the next upload (the median, so that one
-  /// run slowed by something else does not decide). Both sets give the same bits, so the choice
-  /// changes no result.
-  static constexpr std::uint32_t kTuneIntervals = 8;
+  /// after each upload the first kTuneIntervals runs of steps between list checks cycle through
+  /// three sets, each run timed on the device (System::Timer): the entry kernels, the row walk
+  /// shared by the row lanes (System::launch_walks, BIODEM_GPU_ROW_LANES) and the row walk in one
+  /// thread per sphere; then the set with the lowest median time per step runs until the next
+  /// upload (the median, so that one run slowed by something else does not decide). All give the
+  /// same bits, so the choice changes no result. (On CPU threads both walks are the same code.)
+  static constexpr std::uint32_t kTuneSets = 3;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread
+  static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
   struct Tuning {
-    std::uint32_t intervals = 0;             // timed so far since the upload
-    double per_step[kTuneIntervals] = {};    // seconds per step of each (even: entries, odd: row walk)
+    std::uint32_t intervals = 0;                // timed so far since the upload
+    double per_step[kTuneIntervals] = {};       // seconds per step of each (set: interval % kTuneSets)
     std::uint64_t steps = 0;
-    double median[2] = {0.0, 0.0};           // [row walk, entries], once all are timed
-    bool entries = true;                     // the choice, once all are timed
-    std::uint32_t uploads = 0;               // choices made (one per upload that got that far)
+    double median[kTuneSets] = {0.0, 0.0, 0.0};  // per set, once all are timed
+    std::uint32_t choice = 0;                    // the set chosen, once all are timed
+    std::uint32_t uploads = 0;                   // choices made (one per upload that got that far)
   } tuning_;
   typename System::Timer timer_;
   bool timed_choice() const {
     return forces_mode_ == ForcesMode::timed || (forces_mode_ == ForcesMode::automatic && System::kTimedChoice);
   }
   bool tuning_under_way() const { return timed_choice() && tuning_.intervals < kTuneIntervals; }
+  /// The set of the timed choice that runs now (under way: the one being timed).
+  std::uint32_t tuned_set() const { return tuning_under_way() ? tuning_.intervals % kTuneSets : tuning_.choice; }
   /// PairEntries + SumEntries instead of Forces.
   bool use_entry_kernels() const {
     switch (forces_mode_) {
@@ -457,8 +464,10 @@ class Engine final : public DeviceEngine {
       default: break;
     }
     if (!timed_choice()) return ns() < kEntryForcesBelow;
-    return tuning_under_way() ? tuning_.intervals % 2 == 0 : tuning_.entries;
+    return tuned_set() == 0;
   }
+  /// The row walk in one thread per sphere instead of the row lanes (the timed choice only).
+  bool walk_single() const { return timed_choice() && !use_entry_kernels() && tuned_set() == 2; }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
@@ -992,6 +1001,7 @@ inline void Engine::run_units(std::uint32_t units) {
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
+                            (walk_single() ? 1u << 11 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();
@@ -1013,13 +1023,15 @@ inline void Engine::run_units(std::uint32_t units) {
     tuning_.per_step[tuning_.intervals++] = timer_.stop() / units;
     tuning_.steps += units;
     if (tuning_.intervals == kTuneIntervals) {
-      for (int set = 0; set < 2; ++set) {  // set 1 (entries) ran the even runs, set 0 the odd
+      for (std::uint32_t set = 0; set < kTuneSets; ++set) {  // set s ran the runs r with r % kTuneSets == s
         std::vector<double> t;
-        for (std::uint32_t r = set == 1 ? 0 : 1; r < kTuneIntervals; r += 2) t.push_back(tuning_.per_step[r]);
+        for (std::uint32_t r = set; r < kTuneIntervals; r += kTuneSets) t.push_back(tuning_.per_step[r]);
         std::sort(t.begin(), t.end());
         tuning_.median[set] = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
       }
-      tuning_.entries = tuning_.median[1] <= tuning_.median[0];
+      tuning_.choice = 0;  // ties: the entry kernels, then the row lanes
+      for (std::uint32_t set = 1; set < kTuneSets; ++set)
+        if (tuning_.median[set] < tuning_.median[tuning_.choice]) tuning_.choice = set;
       ++tuning_.uploads;
     }
     // The row walk reads both entries of a pair: after entry steps, hand it the history.

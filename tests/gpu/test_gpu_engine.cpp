@@ -801,8 +801,9 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
   EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
 }
 
-// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 8 runs of steps
-// between list checks alternate the entry kernels and the row walk, timed; the faster runs on.
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 12 runs of steps
+// between list checks cycle through the entry kernels, the row walk with the row lanes and the
+// row walk in one thread per sphere, timed; the fastest runs on.
 // Each switch from the entry kernels to the row walk hands over the history (the row walk reads
 // both entries of a pair). The packing stepped that way, with an upload (a new round of trials)
 // in the middle, is bit-identical after every run to the packing stepped with the row walk
