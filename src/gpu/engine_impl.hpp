@@ -759,6 +759,14 @@ inline void Engine::build_list(const Box* known_box) {
     if (domain_.periodic[k]) {
       g.lo[k] = domain_.lo_m[k];
       g.period[k] = len[k];
+      // Image shifts are stored in 8 bits (pack_image) and positions are never wrapped: as the CPU
+      // list, stop once a sphere has gone round a periodic axis more than 60 times (the box of
+      // the spheres says so without a pass of its own) rather than give wrong pairs.
+      const double w = std::max(std::abs(std::floor((box.lo[k] - g.lo[k]) / len[k])),
+                                std::abs(std::floor((box.hi[k] - g.lo[k]) / len[k])));
+      if (!(w <= 60.0))
+        throw Error("a sphere is " + std::to_string(w) + " periodic lengths away along axis " + std::to_string(k) +
+                    " (at most 60 are supported)");
       nn[k] = static_cast<int>(std::floor(len[k] / cell));
       if (nn[k] < 3)
         throw Error("periodic length along axis " + std::to_string(k) +

@@ -233,6 +233,29 @@ std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true
 
 }  // namespace
 
+// Image shifts are stored in 8 bits and positions are never wrapped: as the CPU list
+// (VerletList.SphereTooManyPeriodsAwayIsAnError), the device list stops with a message once a
+// sphere is more than 60 periodic lengths away, rather than give wrong pairs (before: no check,
+// the shift silently wrapped). The packing (periodic along z, 12 mm) with one more sphere 200
+// periods up.
+TEST(GpuEngine, SphereTooManyPeriodsAwayIsAnError) {
+  auto s = packing();
+  add_particle(*s, 0, {1.5e-3, 1.5e-3, 200 * 12e-3 + 1.5e-3}, {0, 0, 0});
+  auto e = gpu_engine(*s);
+  try {
+    e->upload();
+    FAIL() << "no error";
+  } catch (const Error& err) {
+    EXPECT_NE(std::string(err.what()).find("periodic lengths away along axis 2"), std::string::npos) << err.what();
+  }
+  // 50 periods away is within the 8 bits: it runs.
+  auto t = packing();
+  add_particle(*t, 0, {1.5e-3, 1.5e-3, 50 * 12e-3 + 1.5e-3}, {0, 0, 0});
+  auto f = gpu_engine(*t);
+  f->upload();
+  f->advance(20);
+}
+
 // The device list holds exactly the pairs of spheres of different bodies closer than
 // r_i + r_j + skin (periodic minimum image), each pair in both spheres' rows. Scene: 1,200
 // bodies (spheres of two sizes and needles) at random positions in a box periodic along z.
