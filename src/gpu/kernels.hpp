@@ -134,6 +134,19 @@ BIODEM_HD inline void spheres_of_body(const SphereArrays& s, std::uint32_t s0, s
   }
 }
 
+/// Body k's state, integrated in registers, stored once, then its spheres updated from it
+/// (KickDriftSpheres, ReduceKickDrift).
+BIODEM_HD inline void store_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, std::uint32_t s0,
+                                 std::uint32_t ns, const Vec3& x, const Vec3& v, const Vec3& w, const Vec3& l,
+                                 const Quat& q) {
+  b.position[k] = x;
+  b.velocity[k] = v;
+  b.omega[k] = w;
+  b.ang_momentum[k] = l;
+  b.orientation[k] = q;
+  spheres_of_body(s, s0, ns, x, v, w, q);
+}
+
 /// The first part of a step, one thread per body (kick-drift and sphere update fused): half
 /// kick, drift and free-rotor rotation of body k (the CPU engine's step, parts 1-2, same
 /// arithmetic), then its spheres (spheres_of_body). The body's state is loaded into registers,
@@ -152,12 +165,7 @@ struct KickDriftSpheres {
     const double m = b.mass[k];
     const Vec3 inertia = b.inertia[k], f = b.force[k], t = b.torque[k];
     integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
-    b.position[k] = x;
-    b.velocity[k] = v;
-    b.omega[k] = w;
-    b.ang_momentum[k] = l;
-    b.orientation[k] = q;
-    spheres_of_body(s, s0, ns, x, v, w, q);
+    store_body(b, s, k, s0, ns, x, v, w, l, q);
   }
 };
 
@@ -939,12 +947,7 @@ struct ReduceKickDrift {
     b.torque[k] = t;
     integrate::half_kick(v, w, l, q, m, inertia, ns, f, t, h);
     integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
-    b.position[k] = x;
-    b.velocity[k] = v;
-    b.omega[k] = w;
-    b.ang_momentum[k] = l;
-    b.orientation[k] = q;
-    spheres_of_body(s, s0, ns, x, v, w, q);
+    store_body(b, s, k, s0, ns, x, v, w, l, q);
   }
 };
 
