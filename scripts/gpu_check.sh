@@ -23,11 +23,14 @@
 #      (BIODEM_TEST_GPU_FAULT_AT_STEP) ends the run with one error line, not std::terminate;
 #      (3i) each contact kernel set forced, and on a GPU the row walk with 1, 2 and 32 lanes
 #      and blocks of 32 and 512 threads, byte-identical to (3);
+#      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
+#      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
-#      beads): widening seen in run.log, two runs byte-identical, CPU engine agreement;
+#      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
+#      row byte-identical, CPU engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
 # It exits non-zero if any check fails.
@@ -253,6 +256,31 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 32 lanes x blocks of 32, 512 byte-identical to 16 lanes, 128"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
+# 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
+# bytes of (3), the grouped build's default; on a GPU also the grouped build with 2 lanes per
+# sphere in blocks of 512 (the shared memory then limits the groups per block), 8 and 32.
+BIODEM_GPU_BUILD_LANES=1 run_biodem needles_build1 "$needles" "$OUT/needles_build1" --device "$DEVICE"; sb=$?
+build_ok=1; build_detail="one thread per row (BuildRows) byte-identical to the grouped build (3)"
+if [ $sb -ne 0 ] || [ $sa -ne 0 ]; then
+  build_ok=0; build_detail="a run failed (logs/needles_build1.txt)"
+elif ! d=$(same_files "$OUT/needles_a" "$OUT/needles_build1"); then
+  build_ok=0; build_detail="the list builds differ: $(echo $d)"
+fi
+if [ "$DEVICE" = gpu ] && [ $build_ok = 1 ]; then
+  for lb in 2:512 8:128 32:128; do
+    lanes=${lb%:*}; block=${lb#*:}
+    BIODEM_GPU_BUILD_LANES=$lanes BIODEM_GPU_BLOCK=$block \
+      run_biodem "needles_build${lanes}_block$block" "$needles" "$OUT/needles_build${lanes}_block$block" --device gpu
+    if [ $? -ne 0 ]; then
+      build_ok=0; build_detail="$build_detail; $lanes lanes, blocks of $block: run failed"
+    elif ! d=$(same_files "$OUT/needles_a" "$OUT/needles_build${lanes}_block$block"); then
+      build_ok=0; build_detail="$build_detail; $lanes lanes, blocks of $block differ: $(echo $d)"
+    fi
+  done
+  [ $build_ok = 1 ] && build_detail="$build_detail; grouped with 2 lanes (blocks of 512), 8 and 32 byte-identical to 16"
+fi
+[ $build_ok = 1 ] && record "3j. list build: grouped and one thread per row" PASS "$build_detail" ||
+  record "3j. list build: grouped and one thread per row" FAIL "$build_detail"
 settle=tests/cases/biomass_9_6_quick.toml
 run_biodem settle_graph "$settle" "$OUT/settle_graph" --device "$DEVICE"; sc=$?
 BIODEM_GPU_GRAPH=0 run_biodem settle_plain "$settle" "$OUT/settle_plain" --device "$DEVICE"; sd=$?
@@ -335,6 +363,7 @@ wide=tests/cases/gpu_wide_rows_tiny.toml
 run_biodem wide_a "$wide" "$OUT/wide_a" --device "$DEVICE"; wa=$?
 run_biodem wide_b "$wide" "$OUT/wide_b" --device "$DEVICE"; wb=$?
 run_biodem wide_cpu "$wide" "$OUT/wide_cpu" --device cpu; wc=$?
+BIODEM_GPU_BUILD_LANES=1 run_biodem wide_build1 "$wide" "$OUT/wide_build1" --device "$DEVICE"; wd=$?
 if [ $wa -ne 0 ] || [ $wb -ne 0 ] || [ $wc -ne 0 ]; then
   record "6. wider-row rebuild" FAIL "a run failed (logs/wide_*.txt)"
 else
@@ -344,6 +373,9 @@ else
   ok=1
   [ -n "$n_widen" ] && [ "$n_widen" -ge 1 ] || { ok=0; detail="$detail (no widening seen)"; }
   if diff=$(same_files "$OUT/wide_a" "$OUT/wide_b"); then detail="$detail; two runs byte-identical"; else ok=0; detail="$detail; runs differ: $(echo $diff)"; fi
+  if [ $wd -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_BUILD_LANES=1 failed"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_build1"); then detail="$detail; BuildRows (BIODEM_GPU_BUILD_LANES=1) byte-identical"
+  else ok=0; detail="$detail; BuildRows differs: $(echo $diff)"; fi
   if cmp_detail=$(compare_engines wide "$OUT/wide_cpu" "$OUT/wide_a" 0.5 0.05); then detail="$detail; vs CPU: $cmp_detail"; else ok=0; detail="$detail; vs CPU: $cmp_detail"; fi
   [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
 fi

@@ -282,6 +282,8 @@ RunSummary Runner::run() {
     log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
          << "\n";
   if (dev_) log_ << "GPU contact kernels: " << dev_->contact_kernels() << "\n";
+  if (dev_) log_ << "GPU list build: " << dev_->list_build_kernel() << ", " << dev_->grouped_list_builds() << " of "
+                 << dev_->list_builds() << " builds grouped\n";
   if (dev_ && !dev_->profile_report().empty()) log_ << dev_->profile_report() << "\n";
   log_.flush();
   std::ostringstream msg;

@@ -40,6 +40,15 @@ LaunchSwitches launch_switches() {
     if (log2 == 6) throw Error("BIODEM_GPU_ROW_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row walk");
     sw.row_lanes_log2 = log2;
   }
+  if (const char* l = std::getenv("BIODEM_GPU_BUILD_LANES"); l && *l) {
+    const std::string v(l);
+    const char* const allowed[] = {"1", "2", "4", "8", "16", "32"};
+    std::uint32_t log2 = 0;
+    while (log2 < 6 && v != allowed[log2]) ++log2;
+    if (log2 == 6)
+      throw Error("BIODEM_GPU_BUILD_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row of a list build");
+    sw.build_lanes_log2 = log2;
+  }
   return sw;
 }
 

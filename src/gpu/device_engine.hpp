@@ -40,10 +40,12 @@ bool cuda_built();
 /// make_device_engine for either backend (a bad value stops a run on CPU threads too, before
 /// anything is computed), applied by the CUDA engine: BIODEM_GPU_BLOCK (threads per block of
 /// the one-index kernels: 32, 64, 128, 256, 512) and BIODEM_GPU_ROW_LANES (lanes per row walk:
-/// 1, 2, 4, 8, 16, 32).
+/// 1, 2, 4, 8, 16, 32) and BIODEM_GPU_BUILD_LANES (lanes per row of a list build: 1, which is
+/// one thread per sphere (BuildRows) on either backend, or 2, 4, 8, 16, 32: BuildRowsGrouped).
 struct LaunchSwitches {
   std::uint32_t block = 128;
-  std::uint32_t row_lanes_log2 = 4;  // 16 lanes
+  std::uint32_t row_lanes_log2 = 4;    // 16 lanes
+  std::uint32_t build_lanes_log2 = 4;  // 16 lanes
 };
 /// Throws Error naming the variable when a value is not one of those listed.
 LaunchSwitches launch_switches();
@@ -106,6 +108,15 @@ class DeviceEngine {
   /// them started on the device, so without waiting for it (all but the first after an upload;
   /// docs/gpu.md).
   virtual std::uint64_t waitless_list_checks() const = 0;
+  /// The list build's rows by a group of lanes per sphere (BuildRowsGrouped: 16 lanes on a GPU,
+  /// BIODEM_GPU_BUILD_LANES; one thread running the same code on CPU threads) or by one thread
+  /// per sphere scanning its 27 cells (BuildRows): the same rows and history, so the same bits.
+  /// On by default (BIODEM_GPU_BUILD_LANES=1 or this switch: off); rows wider than 128 entries
+  /// are always built by BuildRows. grouped_list_builds() counts the row builds of the first
+  /// kind; list_build_kernel() says which runs (run.log).
+  virtual void set_grouped_list_build(bool on) = 0;
+  virtual std::uint64_t grouped_list_builds() const = 0;
+  virtual std::string list_build_kernel() const = 0;
   /// Times a list build found a row longer than the row capacity and rebuilt with wider rows,
   /// and the capacity now (entries per sphere); run.log reports both (scripts/gpu_check.sh).
   virtual std::uint64_t row_widenings() const = 0;

@@ -31,6 +31,8 @@ namespace biodem::gpu::cuda_device {
 /// keeps every kernel within the registers that allow it (without the bound the per-sphere sums
 /// took ~140 registers on sm_90, and a block of 512 could not launch).
 inline constexpr int kMostThreadsPerBlock = 512;
+/// Shared memory of a block of the grouped list build (the default limit without opting in).
+inline constexpr std::uint32_t kRowBuildSharedBytes = 48 * 1024;
 
 template <class F>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_index(std::uint32_t n, F f) {
@@ -502,6 +504,18 @@ inline std::uint32_t& row_lanes_log2() {
 template <class W>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2);
 
+/// Lanes per row of a list build (System::launch_row_builds): 16 unless BIODEM_GPU_BUILD_LANES
+/// says 2, 4, 8 or 32 (1: the engine builds with BuildRows instead); log2 of it.
+inline std::uint32_t& build_lanes_log2() {
+  static std::uint32_t l = 4;
+  return l;
+}
+
+/// Row builds with a group of lanes per sphere (defined after the kernels, below).
+template <class B>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_row_build(std::uint32_t n, B b, std::uint32_t lanes_log2, std::uint32_t scratch_bytes);
+
 struct System {
   template <class T>
   using vector = thrust::cuda::vector<T, QuietFreeAllocator<T>>;  // (frees never throw: free_quietly)
@@ -548,6 +562,27 @@ struct System {
   }
   /// The row lanes, as run.log names them.
   static std::string walk_lanes() { return std::to_string(1u << row_lanes_log2()) + " lanes per sphere"; }
+  /// The grouped list build (kernels.hpp, BuildRowsGrouped) over n spheres: a group of
+  /// build_lanes_log2() lanes per sphere, each group's scratch in the block's shared memory
+  /// (RowScratch::bytes for the rows' capacity; as many groups per block as launch_block() holds
+  /// and 48 KB of shared memory allow); no host wait.
+  template <class B>
+  static void launch_row_builds(std::uint32_t n, const B& b) {
+    const std::uint32_t log2 = build_lanes_log2() ? build_lanes_log2() : 4u;
+    const std::uint32_t lanes = 1u << log2, bytes = B::scratch_bytes(b.rows.cap);
+    std::uint32_t groups = launch_block() / lanes;
+    if (groups * bytes > kRowBuildSharedBytes) groups = kRowBuildSharedBytes / bytes;
+    if (groups == 0) groups = 1;
+    const std::uint32_t block = groups * lanes;
+    const std::uint64_t threads = static_cast<std::uint64_t>(n) << log2;
+    if (threads > 0xffffffffull)
+      throw Error("GPU engine: " + std::to_string(n) + " row builds of " + std::to_string(lanes) +
+                  " lanes exceed 2^32 threads; set BIODEM_GPU_BUILD_LANES lower");
+    for_each_row_build<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, groups * bytes,
+                         engine_stream()>>>(n, b, log2, bytes);
+    check_cuda("a list build launch");
+  }
+  static std::string build_lanes() { return std::to_string(1u << build_lanes_log2()) + " lanes per sphere"; }
   /// Doubles of device memory that sum_into needs: the result, then one per block.
   static std::size_t sum_scratch(std::uint32_t n) { return 1 + (n + kSumBlock - 1) / kSumBlock; }
   /// out[0] = the sum of f(i) over i < n, left in device memory (no host wait): block sums of a
@@ -618,14 +653,54 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
   if (lane == 0) w.walk_end(item, st, f, tq, count);
 }
 
+/// A group of 2^lanes_log2 lanes of one warp, for BuildRowsGrouped: ballots and syncs over the
+/// group's lanes only (a group never straddles a warp: its size divides 32 and the block). Its
+/// members are host-device (BuildRowsGrouped::build is) but only mean something on the device.
+struct WarpGroup {
+  unsigned mask;  // the group's lanes within the warp
+  std::uint32_t first, my_lane, count;
+  __host__ __device__ std::uint32_t lane() const { return my_lane; }
+  __host__ __device__ std::uint32_t size() const { return count; }
+  __host__ __device__ std::uint32_t ballot(bool b) const {
+#ifdef __CUDA_ARCH__
+    const std::uint32_t all = __ballot_sync(mask, b);
+    return count == 32u ? all : (all >> first) & ((1u << count) - 1u);
+#else
+    return b ? 1u : 0u;
+#endif
+  }
+  __host__ __device__ void sync() const {
+#ifdef __CUDA_ARCH__
+    __syncwarp(mask);
+#endif
+  }
+};
+
+/// Row builds with a group of 2^lanes_log2 lanes per sphere (kernels.hpp, BuildRowsGrouped);
+/// group g of the block has bytes [g * scratch_bytes, (g + 1) * scratch_bytes) of the block's
+/// shared memory. A group's lanes share its sphere, so they leave together.
+template <class B>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_row_build(std::uint32_t n, B b, std::uint32_t lanes_log2, std::uint32_t scratch_bytes) {
+  extern __shared__ __align__(16) unsigned char row_build_shared[];
+  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
+  const std::uint32_t lanes = 1u << lanes_log2, item = t >> lanes_log2, lane = t & (lanes - 1u);
+  if (item >= n) return;
+  const unsigned first = (threadIdx.x & 31u) & ~(lanes - 1u);
+  const unsigned mask = lanes == 32u ? 0xffffffffu : ((1u << lanes) - 1u) << first;
+  const WarpGroup grp{mask, first, lane, lanes};
+  b.build(item, grp, RowScratch::at(row_build_shared + (threadIdx.x >> lanes_log2) * scratch_bytes, b.rows.cap));
+}
+
 }  // namespace biodem::gpu::cuda_device
 
 namespace biodem::gpu::cuda_device {
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   {
-    const LaunchSwitches sw = launch_switches();  // (checked: BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES)
+    const LaunchSwitches sw = launch_switches();  // (checked: BIODEM_GPU_BLOCK, _ROW_LANES, _BUILD_LANES)
     launch_block() = sw.block;
     row_lanes_log2() = sw.row_lanes_log2;
+    build_lanes_log2() = sw.build_lanes_log2;
   }
   int count = 0;
   const cudaError_t err = cudaGetDeviceCount(&count);

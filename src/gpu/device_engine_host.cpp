@@ -110,6 +110,13 @@ struct System {
     launch(n, w);
   }
   static std::string walk_lanes() { return "row lanes (on CPU threads, one thread per sphere too)"; }
+  /// The grouped list build (kernels.hpp, BuildRowsGrouped): here one thread runs each row's
+  /// group as a group of one lane.
+  template <class B>
+  static void launch_row_builds(std::uint32_t n, const B& b) {
+    launch(n, b);
+  }
+  static std::string build_lanes() { return "one lane per sphere (CPU threads)"; }
   /// Doubles of device memory that sum_into needs (the result in the first).
   static std::size_t sum_scratch(std::uint32_t) { return 1; }
   /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the

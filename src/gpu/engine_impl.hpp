@@ -157,6 +157,13 @@ class Engine final : public DeviceEngine {
   std::uint64_t fused_steps() const override { return fused_units_; }
   std::uint64_t sums_in_kick_steps() const override { return summed_in_kick_; }
   std::uint64_t waitless_list_checks() const override { return waitless_checks_; }
+  void set_grouped_list_build(bool on) override { grouped_build_ = on; }
+  std::uint64_t grouped_list_builds() const override { return grouped_builds_; }
+  std::string list_build_kernel() const override {
+    return !grouped_build_ ? "one thread per sphere (BuildRows)"
+           : std::string("BuildRowsGrouped with ") + System::build_lanes() + " (rows up to " +
+                 std::to_string(kGroupRowCap) + " wide; wider rows one thread per sphere)";
+  }
   void set_sort_every(std::uint32_t builds) override {
     sort_every_ = builds;
     builds_until_sort_ = builds ? 1 : 0;  // at the next build
@@ -395,6 +402,8 @@ class Engine final : public DeviceEngine {
   vec<contact::ContactHistory> tmp_history_;
   vec<std::uint8_t> tmp_u8_;
   std::uint32_t sort_every_ = kSortEvery;  // 0: never
+  bool grouped_build_ = launch_switches().build_lanes_log2 != 0;  // BuildRowsGrouped (BIODEM_GPU_BUILD_LANES)
+  std::uint64_t grouped_builds_ = 0;        // row builds by BuildRowsGrouped
   std::uint32_t builds_until_sort_ = 0;    // the build that sorts when this reaches 0 (0: none due)
   std::uint64_t sorts_ = 0;                // sorts that reordered the bodies
   // neighbour list: current and previous rows (history carried from one to the other)
@@ -810,16 +819,24 @@ inline void Engine::build_list(const Box* known_box) {
   // The current rows become the old rows; build new ones, enlarging them until every row fits.
   std::swap(rows_, old_rows_);
   std::uint32_t cap = std::max<std::uint32_t>(rows_.cap, 16);
+  bool grouped = false;  // the rows kept were built by BuildRowsGrouped
   for (;;) {
     if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
-    launch(n, BuildRows{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_), packed,
-                        raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of});
+    const RowBuildArgs args{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_), packed,
+                            raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of};
+    grouped = grouped_build_ && cap <= kGroupRowCap;
+    if (grouped) {
+      System::launch_row_builds(n, BuildRowsGrouped{args});
+    } else {
+      launch(n, BuildRows{args});
+    }
     const std::uint32_t longest =
         thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
     if (longest <= cap) break;
     cap = longest + longest / 4 + 1;
     ++widenings_;
   }
+  grouped_builds_ += grouped;
   // The kernels over entries and wall slots index them by a 32-bit (q * n + sphere).
   if ((static_cast<std::uint64_t>(rows_.cap) + n_walls_) * n > 0xffffffffull)
     throw Error("GPU engine: " + std::to_string(n) + " spheres with neighbour rows of " + std::to_string(rows_.cap) +

@@ -321,14 +321,8 @@ struct PackByCell {
 /// in-place build on a GPU.
 inline constexpr std::uint32_t kLocalRow = 48;
 
-/// Builds sphere i's full neighbour row (all spheres of other bodies closer than r_i + r_j +
-/// skin, sorted by stable id) and carries the history of touching pairs over from the old row.
-/// A row longer than the capacity is counted (length > cap) and not stored; the host then
-/// enlarges the rows and builds again. When the bodies were sorted just before this build, the
-/// old rows are in the storage order before the sort: sphere i's old row is column old_of[i]
-/// (null: the same order). Old and new entries are matched by stable id, which a sort leaves
-/// unchanged.
-struct BuildRows {
+/// What a list build reads and writes (BuildRows, BuildRowsGrouped).
+struct RowBuildArgs {
   SphereArrays s;
   GridParams g;
   const std::uint32_t* sorted;      // sphere indices sorted by cell
@@ -340,11 +334,61 @@ struct BuildRows {
   std::uint32_t n;
   double skin;
   const std::uint32_t* old_of;  // new sphere index -> its index in old_rows (null: identity)
+};
+
+/// The sphere whose row is built (loaded once per row).
+struct RowOwner {
+  Vec3 x;
+  double r;
+  std::uint32_t body;
+  Int3 cell, wrap;
+};
+BIODEM_HD inline RowOwner row_owner(const RowBuildArgs& a, std::uint32_t i) {
+  return RowOwner{a.s.position[i], a.s.radius[i], a.s.body[i], a.cell[i], a.wrap[i]};
+}
+
+/// A row entry found by a build: the neighbour's index, its stable id, the packed image shift.
+struct RowCandidate {
+  std::uint32_t j, sid;
+  std::int32_t image;
+};
+
+/// The list's cut-off test of the sphere at position p of the cell order against the row's
+/// owner o, whose neighbour cell the candidate was found in with periodic shift cw (per axis,
+/// -1, 0 or 1: the cell wrapped round the axis): another body's sphere closer than r_i + r_j +
+/// skin (the periodic image by the two spheres' image indices and cw). Both builds call it, so
+/// they pass the same candidates bit for bit.
+BIODEM_HD inline bool row_candidate(const RowBuildArgs& a, const RowOwner& o, std::uint32_t p, const int cw[3],
+                                    RowCandidate& out) {
+  if (a.packed.body[p] == o.body) return false;  // (the owner itself included)
+  const Int3 wj = a.packed.wrap[p];
+  const int wiv[3] = {o.wrap.x, o.wrap.y, o.wrap.z}, wjv[3] = {wj.x, wj.y, wj.z};
+  int sh[3] = {0, 0, 0};
+  Vec3 dv = o.x - a.packed.position[p];
+  for (int k = 0; k < 3; ++k)
+    if (a.g.periodic[k]) {
+      sh[k] = wiv[k] - wjv[k] + cw[k];
+      dv[k] -= sh[k] * a.g.period[k];
+    }
+  const double cut = o.r + a.packed.radius[p] + a.skin;
+  if (!(norm2(dv) < cut * cut)) return false;
+  out = RowCandidate{a.sorted[p], a.packed.sid[p], pack_image(sh[0], sh[1], sh[2])};
+  return true;
+}
+
+/// Builds sphere i's full neighbour row (all spheres of other bodies closer than r_i + r_j +
+/// skin, sorted by stable id) and carries the history of touching pairs over from the old row.
+/// A row longer than the capacity is counted (length > cap) and not stored; the host then
+/// enlarges the rows and builds again. When the bodies were sorted just before this build, the
+/// old rows are in the storage order before the sort: sphere i's old row is column old_of[i]
+/// (null: the same order). Old and new entries are matched by stable id, which a sort leaves
+/// unchanged. One thread per sphere, scanning the 27 cells around it; the rows of widths above
+/// kGroupRowCap (and BIODEM_GPU_BUILD_LANES=1) are built so. BuildRowsGrouped builds the same
+/// rows with a group of lanes per sphere.
+struct BuildRows : RowBuildArgs {
   BIODEM_HD void operator()(std::uint32_t i) const {
-    const Vec3 xi = s.position[i];
-    const double ri = s.radius[i];
-    const std::uint32_t bi = s.body[i];
-    const Int3 ci = cell[i], wi = wrap[i];
+    const RowOwner own = row_owner(*this, i);
+    const Int3 ci = own.cell;
     const bool local = rows.cap <= kLocalRow;
     std::uint32_t lj[kLocalRow], lsid[kLocalRow];
     std::int32_t limg[kLocalRow];
@@ -372,22 +416,12 @@ struct BuildRows {
           const std::uint32_t key = static_cast<std::uint32_t>((c[2] * nn[1] + c[1]) * nn[0] + c[0]);
           const std::uint32_t p_end = cell_start[key + 1];
           for (std::uint32_t p = cell_start[key]; p < p_end; ++p) {
-            if (packed.body[p] == bi) continue;  // (i itself included)
-            const Int3 wj = packed.wrap[p];
-            const int wiv[3] = {wi.x, wi.y, wi.z}, wjv[3] = {wj.x, wj.y, wj.z};
-            int sh[3] = {0, 0, 0};
-            Vec3 dv = xi - packed.position[p];
-            for (int k = 0; k < 3; ++k)
-              if (g.periodic[k]) {
-                sh[k] = wiv[k] - wjv[k] + cw[k];
-                dv[k] -= sh[k] * g.period[k];
-              }
-            const double cut = ri + packed.radius[p] + skin;
-            if (!(norm2(dv) < cut * cut)) continue;
+            RowCandidate e;
+            if (!row_candidate(*this, own, p, cw, e)) continue;
             if (len < rows.cap) {
               // insertion into the row, sorted by stable id
-              const std::uint32_t jj = sorted[p], sj = packed.sid[p];
-              const std::int32_t img = pack_image(sh[0], sh[1], sh[2]);
+              const std::uint32_t jj = e.j, sj = e.sid;
+              const std::int32_t img = e.image;
               std::uint32_t q = len;
               if (local) {
                 while (q > 0 && lsid[q - 1] > sj) {
@@ -441,6 +475,202 @@ struct BuildRows {
         rows.touching[q * n + i] = 0;
       }
     }
+  }
+};
+
+/// The grouped build (BuildRowsGrouped) handles rows up to this wide (its staging lives in the
+/// block's shared memory on a GPU); wider rows are built by BuildRows.
+inline constexpr std::uint32_t kGroupRowCap = 128;
+/// The candidates of a row are those of at most 18 runs of consecutive positions of the cell
+/// order: the 9 lines (dy, dz) of the 3 x 3 x 3 cells around the sphere's, each the cells
+/// dx = -1, 0, 1 (consecutive cell keys), cut in two where a periodic x axis wraps.
+inline constexpr std::uint32_t kCellRuns = 18;
+
+/// Run r (< kCellRuns) of the candidates around a sphere in cell `ci`: the positions [begin, end)
+/// of the cell order and the periodic shift of its cells (cw, per axis). Empty where the cells
+/// lie outside a non-periodic grid (or where line r / 2 needs no second piece). Every cell of
+/// the 27 that BuildRows scans lies in exactly one run, with the same shift: the grid has at
+/// least 3 cells along a periodic axis, so no cell is reached twice.
+BIODEM_HD inline void cell_run(const RowBuildArgs& a, const Int3& ci, std::uint32_t r, std::uint32_t& begin,
+                               std::uint32_t& end, int cw[3]) {
+  begin = end = 0;
+  cw[0] = cw[1] = cw[2] = 0;
+  const int line = static_cast<int>(r / 2), piece = static_cast<int>(r % 2);
+  const int nn[3] = {a.g.n.x, a.g.n.y, a.g.n.z};
+  int c[3] = {0, ci.y + line % 3 - 1, ci.z + line / 3 - 1};
+  for (int k = 1; k < 3; ++k)
+    if (c[k] < 0 || c[k] >= nn[k]) {
+      if (!a.g.periodic[k]) return;
+      cw[k] = c[k] < 0 ? -1 : 1;
+      c[k] -= cw[k] * nn[k];
+    }
+  int lo = ci.x - 1, hi = ci.x + 1;  // cells lo..hi along x, all with shift cw[0]
+  if (!a.g.periodic[0]) {
+    if (piece == 1) return;
+    lo = lo < 0 ? 0 : lo;
+    hi = hi > nn[0] - 1 ? nn[0] - 1 : hi;
+  } else if (lo < 0) {  // the cell before wraps to the last: piece 0 is that cell, piece 1 the rest
+    if (piece == 0) {
+      lo = hi = nn[0] - 1;
+      cw[0] = -1;
+    } else {
+      lo = 0;
+    }
+  } else if (hi >= nn[0]) {  // the cell after wraps to the first: piece 1 is that cell
+    if (piece == 0) {
+      hi = nn[0] - 1;
+    } else {
+      lo = hi = 0;
+      cw[0] = 1;
+    }
+  } else if (piece == 1) {
+    return;
+  }
+  const std::uint32_t key = static_cast<std::uint32_t>((c[2] * nn[1] + c[1]) * nn[0]);
+  begin = a.cell_start[key + static_cast<std::uint32_t>(lo)];
+  end = a.cell_start[key + static_cast<std::uint32_t>(hi) + 1];
+}
+BIODEM_HD inline std::int32_t pack_shift(const int cw[3]) { return pack_image(cw[0], cw[1], cw[2]); }
+
+/// A group's scratch memory for one row (BuildRowsGrouped): on a GPU in the block's shared
+/// memory, on CPU threads on the thread's stack.
+struct RowScratch {
+  std::uint32_t* run_begin;   // kCellRuns
+  std::uint32_t* run_first;   // kCellRuns + 1: the runs' candidates numbered in run order
+  std::int32_t* run_shift;    // kCellRuns, packed as the image shifts
+  std::uint32_t* j;           // staged entries (cap), in the order found
+  std::uint32_t* sid;
+  std::int32_t* image;
+  std::uint32_t* row_sid;     // cap: the stable ids in row order
+  std::uint8_t* matched;      // cap: entry q took an old contact's history
+  /// Bytes of one group's scratch for rows of capacity cap (a multiple of 16).
+  BIODEM_HD static std::uint32_t bytes(std::uint32_t cap) {
+    const std::uint32_t b = (3 * kCellRuns + 1 + 4 * cap) * 4 + cap;
+    return (b + 15u) & ~15u;
+  }
+  BIODEM_HD static RowScratch at(unsigned char* base, std::uint32_t cap) {
+    RowScratch sc;
+    auto* w = reinterpret_cast<std::uint32_t*>(base);
+    sc.run_begin = w;
+    sc.run_first = w + kCellRuns;
+    sc.run_shift = reinterpret_cast<std::int32_t*>(w + 2 * kCellRuns + 1);
+    w += 3 * kCellRuns + 1;
+    sc.j = w;
+    sc.sid = w + cap;
+    sc.image = reinterpret_cast<std::int32_t*>(w + 2 * cap);
+    sc.row_sid = w + 3 * cap;
+    sc.matched = reinterpret_cast<std::uint8_t*>(w + 4 * cap);
+    return sc;
+  }
+};
+
+/// One lane, the whole group (BuildRowsGrouped on CPU threads).
+struct OneLane {
+  BIODEM_HD std::uint32_t lane() const { return 0; }
+  BIODEM_HD std::uint32_t size() const { return 1; }
+  BIODEM_HD std::uint32_t ballot(bool b) const { return b ? 1u : 0u; }  // bit l: lane l's b
+  BIODEM_HD void sync() const {}
+};
+BIODEM_HD inline std::uint32_t count_bits(std::uint32_t v) {
+  std::uint32_t c = 0;
+  for (; v; v &= v - 1u) ++c;
+  return c;
+}
+
+/// The rows of BuildRows, built by a group of lanes per sphere (on a GPU 16 lanes of a warp,
+/// BIODEM_GPU_BUILD_LANES; on CPU threads one): the lanes find the runs of candidate positions
+/// (cell_run), then test the candidates numbered in run order, a round of `lanes` at a time
+/// (row_candidate), the passing ones staged in the order found; each staged entry then goes to
+/// its place in the row, the number of staged stable ids below its own (stable ids are unique
+/// in a row: each sphere is in one cell, each cell in one run), and each touching contact of the
+/// old row hands its history to the entry of the same stable id. The same rows, lengths and
+/// history as BuildRows (GpuEngine.GroupedListBuildGivesTheRowsOfBuildRows), with the longest
+/// chain of dependent loads a few rounds instead of a scan of 27 cells.
+struct BuildRowsGrouped : RowBuildArgs {
+  template <class Group>
+  BIODEM_HD void build(std::uint32_t i, const Group& grp, const RowScratch& sc) const {
+    const std::uint32_t lane = grp.lane(), lanes = grp.size(), cap = rows.cap;
+    const RowOwner o = row_owner(*this, i);
+    for (std::uint32_t r = lane; r < kCellRuns; r += lanes) {
+      std::uint32_t b, e;
+      int cw[3];
+      cell_run(*this, o.cell, r, b, e, cw);
+      sc.run_begin[r] = b;
+      sc.run_first[r + 1] = e - b;  // (counts, summed by lane 0 below)
+      sc.run_shift[r] = pack_shift(cw);
+    }
+    grp.sync();
+    if (lane == 0) {
+      sc.run_first[0] = 0;
+      for (std::uint32_t r = 0; r < kCellRuns; ++r) sc.run_first[r + 1] += sc.run_first[r];
+    }
+    grp.sync();
+    const std::uint32_t total = sc.run_first[kCellRuns];
+    const std::uint32_t below = (1u << lane) - 1u;  // the lanes before this one
+    std::uint32_t len = 0, r = 0;
+    for (std::uint32_t t0 = 0; t0 < total; t0 += lanes) {  // (the same rounds in every lane)
+      const std::uint32_t t = t0 + lane;
+      RowCandidate e{};
+      bool pass = false;
+      if (t < total) {
+        while (sc.run_first[r + 1] <= t) ++r;
+        const std::int32_t shift = sc.run_shift[r];
+        const int cw[3] = {image_component(shift, 0), image_component(shift, 1), image_component(shift, 2)};
+        pass = row_candidate(*this, o, sc.run_begin[r] + (t - sc.run_first[r]), cw, e);
+      }
+      const std::uint32_t passed = grp.ballot(pass);
+      const std::uint32_t slot = len + count_bits(passed & below);
+      if (pass && slot < cap) {
+        sc.j[slot] = e.j;
+        sc.sid[slot] = e.sid;
+        sc.image[slot] = e.image;
+      }
+      len += count_bits(passed);
+    }
+    if (lane == 0) rows.length[i] = len;
+    if (len > cap) return;  // (the host widens the rows and builds again)
+    grp.sync();
+    for (std::uint32_t q = lane; q < len; q += lanes) {
+      const std::uint32_t sj = sc.sid[q];
+      std::uint32_t at = 0;
+      for (std::uint32_t m = 0; m < len; ++m) at += sc.sid[m] < sj ? 1u : 0u;
+      rows.j[at * n + i] = sc.j[q];
+      rows.sid[at * n + i] = sj;
+      rows.image[at * n + i] = sc.image[q];
+      sc.row_sid[at] = sj;
+      sc.matched[at] = 0;
+    }
+    grp.sync();
+    const std::uint32_t oi = old_of ? old_of[i] : i;
+    const std::uint32_t o_end = old_rows.length[oi];
+    for (std::uint32_t k = lane; k < o_end; k += lanes) {
+      if (!old_rows.touching[k * n + oi]) continue;
+      const std::uint32_t so = old_rows.sid[k * n + oi];
+      std::uint32_t lo = 0, hi = len;  // the first entry of the new row with stable id >= so
+      while (lo < hi) {
+        const std::uint32_t mid = (lo + hi) / 2;
+        if (sc.row_sid[mid] < so) lo = mid + 1;
+        else hi = mid;
+      }
+      if (lo < len && sc.row_sid[lo] == so) {
+        rows.history[lo * n + i] = old_rows.history[k * n + oi];
+        rows.touching[lo * n + i] = 1;
+        sc.matched[lo] = 1;
+      }
+    }
+    grp.sync();
+    for (std::uint32_t q = lane; q < len; q += lanes)
+      if (!sc.matched[q]) {
+        rows.history[q * n + i] = contact::ContactHistory{};
+        rows.touching[q * n + i] = 0;
+      }
+  }
+  /// Bytes of one group's scratch (RowScratch) for rows of capacity cap.
+  BIODEM_HD static std::uint32_t scratch_bytes(std::uint32_t cap) { return RowScratch::bytes(cap); }
+  /// One thread per sphere (CPU threads): the group is that thread, its scratch on the stack.
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    alignas(16) unsigned char scratch[(3 * kCellRuns + 1 + 4 * kGroupRowCap) * 4 + kGroupRowCap + 16];
+    build(i, OneLane{}, RowScratch::at(scratch, rows.cap));
   }
 };
 

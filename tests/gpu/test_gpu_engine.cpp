@@ -980,3 +980,135 @@ TEST(GpuEngine, BodiesSortedByCellGiveTheBitsOfTheHostOrder) {
   EXPECT_LT(ec->body_sorts(), ea->body_sorts());
   EXPECT_EQ(eb->body_sorts(), 0u);
 }
+
+namespace {
+
+/// Spheres of two sizes moving in a box periodic along all three axes, no walls, no gravity,
+/// on a lattice 1.35 x 1.5 x 1.5 mm (no overlaps at the start). The box is 5.5 x 9 x 12 mm, or
+/// 3.2 list cut-offs along an axis where that is more: at the skin of 0.5 mm it has 3 list cells
+/// along x (so the cells before and after a sphere's along x are the two other cells, reached
+/// round the axis), and along every axis at larger skins. The list's image shifts on every axis,
+/// both ways.
+std::unique_ptr<sim::Simulation> periodic_box(double skin_m) {
+  SimSetup su;
+  su.particle = {5e6, 0.3, 1000.0};
+  su.wall = {5e6, 0.3, 0.0};
+  su.particle_particle = {0.5, 0.5, 0.3, 5e4};
+  su.particle_wall = {0.5, 0.4, 0.5, 2.5e4};
+  su.templates = {sphere_template(0.6e-3), sphere_template(0.45e-3)};
+  su.dt_s = 1e-5;
+  su.gravity_m_s2 = Vec3{};
+  auto s = std::make_unique<sim::Simulation>(make_simulation(su));
+  const double cut = 1.2e-3 + skin_m;
+  const Vec3 len{std::max(5.5e-3, 3.2 * cut), std::max(9e-3, 3.2 * cut), std::max(12e-3, 3.2 * cut)};
+  const Vec3 spacing{1.35e-3, 1.5e-3, 1.5e-3};
+  neighbor::Domain d;
+  d.periodic = {true, true, true};
+  d.lo_m = {-0.5 * len.x, 0, 0};
+  d.hi_m = {0.5 * len.x, len.y, len.z};
+  s->set_domain(d);
+  s->set_skin(skin_m);
+  std::mt19937_64 gen(77);
+  const int nx = static_cast<int>(len.x / spacing.x), ny = static_cast<int>(len.y / spacing.y),
+            nz = static_cast<int>(len.z / spacing.z);
+  for (int i = 0; i < nx; ++i)
+    for (int j = 0; j < ny; ++j)
+      for (int l = 0; l < nz; ++l) {
+        const Vec3 x{d.lo_m.x + (i + 0.5) * spacing.x, (j + 0.5) * spacing.y, (l + 0.5) * spacing.z};
+        const auto shape = static_cast<std::uint32_t>(gen() % 2);
+        const Vec3 v{uniform(gen) - 0.5, uniform(gen) - 0.5, uniform(gen) - 0.5};
+        add_particle(*s, shape, x, 3.0 * v, {100 * (uniform(gen) - 0.5), 0, 0});
+      }
+  return s;
+}
+
+}  // namespace
+
+// The list build by a group of lanes per sphere (BuildRowsGrouped, the default) gives the rows,
+// lengths and carried history of the build by one thread per sphere (BuildRows): the same bits
+// in every later state. On CPU threads the group is one lane (its candidate runs, staging, the
+// placement by rank and the history by the old row's entries); on a GPU (BIODEM_TEST_GPU=1) 16
+// lanes of a warp. Scenes: the packing (needles, a turning cylinder, periodic along z, sorts of
+// the bodies, an upload in the middle), and the box periodic along x, y and z with 3 cells
+// along x, at skins whose rows fit 16 entries, widen past 48 (where BuildRows builds in place)
+// and past 128 (where the engine falls back to BuildRows). The list of the box against brute
+// force. It fails when a run of cells loses a piece, a shift or a candidate (checked: dropping
+// piece 1 of the x runs, or the shift of piece 0, makes the periodic box differ).
+TEST(GpuEngine, GroupedListBuildGivesTheRowsOfBuildRows) {
+  auto on = [](gpu::DeviceEngine& e) { e.set_grouped_list_build(true); };
+  auto off = [](gpu::DeviceEngine& e) { e.set_grouped_list_build(false); };
+  {
+    const auto r = stepped_alike(0.5e-3, false, true, on, off);
+    std::printf("[measured] grouped list build, packing: %llu steps, %llu builds (%llu grouped), %llu body sorts; "
+                "state, forces, history bit-identical to BuildRows after every run\n",
+                static_cast<unsigned long long>(r.steps), static_cast<unsigned long long>(r.ea->list_builds()),
+                static_cast<unsigned long long>(r.ea->grouped_list_builds()),
+                static_cast<unsigned long long>(r.ea->body_sorts()));
+    EXPECT_EQ(r.ea->list_builds(), r.eb->list_builds());
+    EXPECT_GT(r.ea->list_builds(), 3u);
+    EXPECT_GT(r.ea->body_sorts(), 1u);
+    EXPECT_EQ(r.ea->grouped_list_builds(), r.ea->list_builds());
+    EXPECT_EQ(r.eb->grouped_list_builds(), 0u);
+    EXPECT_EQ(r.ea->list_pairs(nullptr), r.eb->list_pairs(nullptr));
+  }
+  for (const double skin : {0.5e-3, 2.2e-3, 3.4e-3}) {
+    auto a = periodic_box(skin), b = periodic_box(skin);
+    auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+    on(*ea);
+    off(*eb);
+    ea->upload();
+    eb->upload();
+    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+    // Lists built afresh for the state now (an upload builds), against each other and brute force.
+    ea->download(true);
+    eb->download(true);
+    ea->upload();
+    eb->upload();
+    std::size_t unmirrored = 1;
+    const auto pairs = ea->list_pairs(&unmirrored);
+    EXPECT_EQ(unmirrored, 0u);
+    EXPECT_EQ(pairs, eb->list_pairs(nullptr));
+    const auto& sp = a->spheres();
+    const Vec3 len = a->domain().length_m();
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> ref;
+    std::size_t across = 0;
+    for (std::uint32_t i = 0; i < sp.size(); ++i)
+      for (std::uint32_t j = i + 1; j < sp.size(); ++j) {
+        if (sp.body[i] == sp.body[j]) continue;
+        Vec3 dv = sp.position_m[i] - sp.position_m[j];
+        bool wrapped = false;
+        for (int k = 0; k < 3; ++k) {
+          const double sh = std::round(dv[k] / len[k]);
+          dv[k] -= len[k] * sh;
+          wrapped = wrapped || (k == 0 && sh != 0.0);
+        }
+        const double c = sp.radius_m[i] + sp.radius_m[j] + a->skin_m();
+        if (norm2(dv) < c * c) {
+          ref.emplace_back(i, j);
+          across += wrapped;
+        }
+      }
+    std::printf("[measured] grouped list build, %zu spheres in a box periodic on 3 axes, skin %.2g mm: %llu steps, "
+                "%llu builds (%llu grouped), row capacity %u; %zu pairs in the list of the last state (%zu across "
+                "the x period), brute force %zu\n",
+                sp.size(), 1e3 * skin, static_cast<unsigned long long>(steps),
+                static_cast<unsigned long long>(ea->list_builds()),
+                static_cast<unsigned long long>(ea->grouped_list_builds()), ea->row_capacity(), pairs.size(), across,
+                ref.size());
+    EXPECT_GT(ea->list_builds(), 2u);
+    EXPECT_EQ(eb->grouped_list_builds(), 0u);
+    EXPECT_GT(across, 10u) << "pairs must cross the x period for the test to mean anything";
+    EXPECT_TRUE(pairs == ref);
+    if (skin < 1e-3) {
+      EXPECT_LE(ea->row_capacity(), 48u);
+      EXPECT_EQ(ea->grouped_list_builds(), ea->list_builds());
+    } else if (skin < 3e-3) {
+      EXPECT_GT(ea->row_capacity(), 48u);
+      EXPECT_LE(ea->row_capacity(), 128u);
+      EXPECT_EQ(ea->grouped_list_builds(), ea->list_builds());
+    } else {
+      EXPECT_GT(ea->row_capacity(), 128u);  // the fallback to BuildRows
+      EXPECT_LT(ea->grouped_list_builds(), ea->list_builds());
+    }
+  }
+}
