@@ -5,7 +5,8 @@
 #   2. bench/run_gpu_bench.sh on the GPU with BIODEM_GPU_PROFILE=1 (where the whole runs' step
 #      time went: step kernels, list checks, list builds; OUT/profile.txt), with the list checks
 #      waiting for their reduction (BIODEM_GPU_QUEUED_CHECK=0), and for several values of
-#      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk),
+#      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk), the list
+#      build by one thread per row (BIODEM_GPU_BUILD_LANES=1, profiled beside the default),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
 #      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
 #      last (the spread of the two is the noise).
@@ -60,11 +61,13 @@ done
 
 # ------------------------------------------------------------------------ 2. the sweep
 results="$OUT/sweep.csv"
+rm -f "$OUT/profile.txt"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_PROFILE=1+BIODEM_GPU_BUILD_LANES=1 \
+  BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
   BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}
@@ -74,11 +77,11 @@ for setting in $settings; do
   [ "$setting" != default ] && IFS=+ read -ra envs <<< "$setting"
   env "${envs[@]}" DEVICE=gpu BIODEM="$BIODEM" OUT="$OUT/s" CPU_THREADS="" timeout 60 bash "$here/run_gpu_bench.sh" $cases > /dev/null 2>&1
   tail -n +2 "$OUT/s/gpu_results.csv" | sed "s/^/$setting,/" >> "$results"
-  if [ "$setting" = BIODEM_GPU_PROFILE=1 ]; then  # where the time of the whole runs went
+  case "$setting" in BIODEM_GPU_PROFILE=1*)  # where the time of the whole runs went
     for c in $cases; do
-      echo "$c: $(grep -h 'GPU profile' "$OUT/s/gpu_$c/run.log" 2>/dev/null || echo '(no profile line)')"
-    done | tee "$OUT/profile.txt"
-  fi
+      echo "$c ($setting): $(grep -h 'GPU profile' "$OUT/s/gpu_$c/run.log" 2>/dev/null || echo '(no profile line)')"
+    done | tee -a "$OUT/profile.txt" ;;
+  esac
 done
 python3 - "$results" <<'PY'
 import csv, sys, collections
