@@ -10,6 +10,8 @@
 #include <thrust/mr/allocator.h>
 #include <thrust/system/cuda/memory_resource.h>
 #include <thrust/system/cuda/vector.h>
+#include <thrust/system/cuda/error.h>
+#include <thrust/system_error.h>
 
 #include <chrono>
 #include <cstddef>
@@ -19,6 +21,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -695,6 +698,77 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock)
 }  // namespace biodem::gpu::cuda_device
 
 namespace biodem::gpu::cuda_device {
+
+/// Runs f, giving a CUDA error that Thrust met inside one of its algorithms or vectors (it throws
+/// thrust::system_error, or bad_alloc when device memory runs out) the one line that the
+/// engine's own CUDA calls give it (throw_cuda: a DeviceFault when the context is lost). Before,
+/// such an error ended the run as "internal error" (status 3).
+template <class F>
+decltype(auto) thrust_errors_named(const char* what, F&& f) {
+  try {
+    return f();
+  } catch (const thrust::system_error& e) {
+    if (e.code().category() == thrust::cuda_category())
+      throw_cuda(static_cast<cudaError_t>(e.code().value()), std::string("a Thrust call of ") + what + " (" + e.what() + ")");
+    throw Error(std::string("GPU engine: ") + what + ": " + e.what());
+  } catch (const std::bad_alloc& e) {
+    throw Error(std::string("GPU engine: out of memory in ") + what + " (" + e.what() + ")");
+  }
+}
+
+/// The CUDA engine as the run driver sees it: every call that may reach the device goes through
+/// thrust_errors_named.
+class NamedErrorsEngine final : public DeviceEngine {
+ public:
+  NamedErrorsEngine(sim::Simulation& host, std::string name) : e_(host, std::move(name)) {}
+  void upload() override { thrust_errors_named("an upload", [&] { e_.upload(); }); }
+  void download(bool history) override { thrust_errors_named("a download", [&] { e_.download(history); }); }
+  void step() override { thrust_errors_named("a step", [&] { e_.step(); }); }
+  Advanced advance(std::uint64_t max_steps) override {
+    return thrust_errors_named("a run of steps", [&] { return e_.advance(max_steps); });
+  }
+  void begin_settle(const SettleCriterion& c, std::uint64_t phase_step, std::uint64_t below) override {
+    thrust_errors_named("a settle criterion's start", [&] { e_.begin_settle(c, phase_step, below); });
+  }
+  void end_settle() override { thrust_errors_named("a settle criterion's end", [&] { e_.end_settle(); }); }
+  double kinetic_energy_j() override {
+    return thrust_errors_named("a kinetic energy sum", [&] { return e_.kinetic_energy_j(); });
+  }
+  double translational_kinetic_energy_j() override {
+    return thrust_errors_named("a kinetic energy sum", [&] { return e_.translational_kinetic_energy_j(); });
+  }
+  void sync_walls() override { thrust_errors_named("a wall update", [&] { e_.sync_walls(); }); }
+  std::string device_name() const override { return e_.device_name(); }
+  void set_check_every(std::uint32_t steps) override { e_.set_check_every(steps); }
+  std::uint64_t list_builds() const override { return e_.list_builds(); }
+  std::uint64_t waitless_list_checks() const override { return e_.waitless_list_checks(); }
+  void set_grouped_list_build(bool on) override { e_.set_grouped_list_build(on); }
+  std::uint64_t grouped_list_builds() const override { return e_.grouped_list_builds(); }
+  std::string list_build_kernel() const override { return e_.list_build_kernel(); }
+  std::uint64_t row_widenings() const override { return e_.row_widenings(); }
+  std::uint32_t row_capacity() const override { return e_.row_capacity(); }
+  void set_fused_kick(bool on) override { thrust_errors_named("a kernel switch", [&] { e_.set_fused_kick(on); }); }
+  std::uint64_t fused_steps() const override { return e_.fused_steps(); }
+  std::uint64_t sums_in_kick_steps() const override { return e_.sums_in_kick_steps(); }
+  void set_entry_forces(bool on) override {
+    thrust_errors_named("a kernel switch", [&] { e_.set_entry_forces(on); });
+  }
+  std::string contact_kernels() const override { return e_.contact_kernels(); }
+  std::uint64_t entry_force_passes() const override { return e_.entry_force_passes(); }
+  std::string profile_report() const override { return e_.profile_report(); }
+  void set_sort_every(std::uint32_t builds) override { e_.set_sort_every(builds); }
+  std::uint64_t body_sorts() const override { return e_.body_sorts(); }
+  std::vector<std::uint32_t> body_order() override {
+    return thrust_errors_named("a download of the body order", [&] { return e_.body_order(); });
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
+    return thrust_errors_named("a download of the list", [&] { return e_.list_pairs(unmirrored); });
+  }
+
+ private:
+  Engine e_;
+};
+
 std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   {
     const LaunchSwitches sw = launch_switches();  // (checked: BIODEM_GPU_BLOCK, _ROW_LANES, _BUILD_LANES)
@@ -717,6 +791,6 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   const std::string name = std::string(prop.name) + " (sm_" + std::to_string(prop.major) +
                            std::to_string(prop.minor) + ", " + std::to_string(prop.multiProcessorCount) +
                            " SMs, CUDA)";
-  return std::make_unique<Engine>(host, name);
+  return thrust_errors_named("the engine's set-up", [&] { return std::make_unique<NamedErrorsEngine>(host, name); });
 }
 }  // namespace biodem::gpu::cuda_device

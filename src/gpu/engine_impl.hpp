@@ -142,6 +142,14 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_TEST_GPU_FAULT_AT_STEP = '" + std::string(f) + "': expected a step number above 0");
       fault_at_step_ = v;
     }
+    // BIODEM_TEST_GPU_FAULT_IN_THRUST=1: the injected fault is met first inside a Thrust
+    // reduction (on CUDA: thrust::system_error, which the engine names as its own CUDA errors);
+    // without it, at the next queued read, wait or download. On CPU threads the same as without.
+    if (const char* f = std::getenv("BIODEM_TEST_GPU_FAULT_IN_THRUST"); f && *f) {
+      if (std::string(f) != "0" && std::string(f) != "1")
+        throw Error("BIODEM_TEST_GPU_FAULT_IN_THRUST = '" + std::string(f) + "': expected 0 or 1");
+      fault_in_thrust_ = std::string(f) == "1";
+    }
     // BIODEM_GPU_PROFILE=1: where the wall time of advance() goes (profile_report(), run.log).
     if (const char* prof = std::getenv("BIODEM_GPU_PROFILE"); prof && *prof) {
       if (std::string(prof) != "0" && std::string(prof) != "1")
@@ -426,6 +434,7 @@ class Engine final : public DeviceEngine {
   double skin_ = 0.0, dt_ = 0.0, r_max_ = 0.0;
   double skin_diameters_ = 0.0;  // BIODEM_GPU_SKIN_DIAMETERS (0: the case's skin)
   std::uint64_t fault_at_step_ = 0;  // BIODEM_TEST_GPU_FAULT_AT_STEP (0: none)
+  bool fault_in_thrust_ = false;     // BIODEM_TEST_GPU_FAULT_IN_THRUST
   Vec3 gravity_;
   std::uint64_t builds_ = 0;
   std::uint64_t widenings_ = 0;  // list builds redone with wider rows
@@ -1104,6 +1113,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   if (fault_at_step_ && host_.step_count() >= fault_at_step_) {  // (test hook, above)
     fault_at_step_ = 0;
     System::inject_fault();
+    if (fault_in_thrust_) check_finite();  // (a Thrust reduction that waits for the device)
   }
   const std::uint64_t step0 = host_.step_count(), k0 = settle_host_.k;
   const double t0 = host_.time_s();
