@@ -585,7 +585,9 @@ struct System {
                          engine_stream()>>>(n, b, log2, bytes);
     check_cuda("a list build launch");
   }
-  static std::string build_lanes() { return std::to_string(1u << build_lanes_log2()) + " lanes per sphere"; }
+  static std::string build_lanes() {
+    return std::to_string(1u << (build_lanes_log2() ? build_lanes_log2() : 4u)) + " lanes per sphere";
+  }
   /// Doubles of device memory that sum_into needs: the result, then one per block.
   static std::size_t sum_scratch(std::uint32_t n) { return 1 + (n + kSumBlock - 1) / kSumBlock; }
   /// out[0] = the sum of f(i) over i < n, left in device memory (no host wait): block sums of a

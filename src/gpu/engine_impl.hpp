@@ -1277,12 +1277,14 @@ inline void Engine::check_list() {
   }
   if (room < check_every_ * per_step) {
     const auto t1 = Clock::now();
-    if (lagged) {  // the box, finiteness and speed of now for the build (which waits anyway)
-      m = motion_now();
-      check_motion(m, 0);
-      per_step = 2.0 * dt_ * std::sqrt(m.speed2);
-    }
-    build_list(&m.box);  // (positions found finite: moved < half the skin)
+    // Built with the box of the motion read, `lag` steps old, without a reduction and a wait of
+    // its own: a sphere that has left that box since is put in the nearest edge cell (CellOf
+    // clamps), which keeps every pair within the cut-off in neighbouring cells, so the rows are
+    // the same as with the box of now (and the results: they do not depend on the grid). Its
+    // positions were finite `lag` steps ago; a position that became non-finite since lands in
+    // cell 0 (CellOf) and stops the run at the next check. The next check is set by the speed
+    // read (`lag` steps old; before, the speed of now), with the factor 2 for acceleration.
+    build_list(&m.box);
     room = half_skin;
     if (profile_.on) {
       System::wait();

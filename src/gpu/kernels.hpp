@@ -268,20 +268,26 @@ struct CellOf {
   Int3* cell;
   BIODEM_HD void operator()(std::uint32_t i) const {
     int c[3], w[3] = {0, 0, 0};
+    // A sphere outside the grid (the box of a list check some steps old) goes to the nearest
+    // edge cell; a non-finite position (which the next list check reports) to cell 0, image 0.
     for (int k = 0; k < 3; ++k) {
       double x = s.position[i][k] - g.lo[k];
       const int nk = k == 0 ? g.n.x : (k == 1 ? g.n.y : g.n.z);
       if (g.periodic[k]) {
         const double L = g.period[k];
         const double wk = floor(x / L);
+        if (!(wk >= -1e6 && wk <= 1e6)) {  // (non-finite; or beyond the image shifts, which the build refuses)
+          w[k] = 0;
+          c[k] = 0;
+          continue;
+        }
         w[k] = static_cast<int>(wk);
         x -= wk * L;
-        const int ck = static_cast<int>(x / (L / nk));
-        c[k] = ck < nk - 1 ? ck : nk - 1;
+        const double q = x / (L / nk);
+        c[k] = !(q >= 0.0) ? 0 : (q >= static_cast<double>(nk - 1) ? nk - 1 : static_cast<int>(q));
       } else {
         const double q = x / g.cell;
-        const int ck = q < 0.0 ? 0 : (q > static_cast<double>(nk - 1) ? nk - 1 : static_cast<int>(q));
-        c[k] = ck;
+        c[k] = !(q >= 0.0) ? 0 : (q > static_cast<double>(nk - 1) ? nk - 1 : static_cast<int>(q));
       }
     }
     wrap[i] = Int3{w[0], w[1], w[2]};
@@ -630,6 +636,10 @@ struct BuildRowsGrouped : RowBuildArgs {
     if (lane == 0) rows.length[i] = len;
     if (len > cap) return;  // (the host widens the rows and builds again)
     grp.sync();
+    // Each entry's place: the number of staged stable ids below its own. Every place is taken
+    // once because a row's stable ids are unique (each sphere lies in one cell, each cell in one
+    // run: the engine refuses fewer than 3 cells along a periodic axis); with a repeated id a
+    // place would stay unwritten and two lanes would write another.
     for (std::uint32_t q = lane; q < len; q += lanes) {
       const std::uint32_t sj = sc.sid[q];
       std::uint32_t at = 0;
@@ -643,6 +653,8 @@ struct BuildRowsGrouped : RowBuildArgs {
     grp.sync();
     const std::uint32_t oi = old_of ? old_of[i] : i;
     const std::uint32_t o_end = old_rows.length[oi];
+    // Each touching old contact hands its history to the new entry of its stable id (unique in
+    // the old row too, so each new entry is written by one lane at most).
     for (std::uint32_t k = lane; k < o_end; k += lanes) {
       if (!old_rows.touching[k * n + oi]) continue;
       const std::uint32_t so = old_rows.sid[k * n + oi];
@@ -667,8 +679,13 @@ struct BuildRowsGrouped : RowBuildArgs {
   }
   /// Bytes of one group's scratch (RowScratch) for rows of capacity cap.
   BIODEM_HD static std::uint32_t scratch_bytes(std::uint32_t cap) { return RowScratch::bytes(cap); }
-  /// One thread per sphere (CPU threads): the group is that thread, its scratch on the stack.
+  /// One thread per sphere (CPU threads): the group is that thread, its scratch on the stack
+  /// (sized for kGroupRowCap; wider rows, which the engine never gives it, go to BuildRows).
   BIODEM_HD void operator()(std::uint32_t i) const {
+    if (rows.cap > kGroupRowCap) {
+      BuildRows{*this}(i);
+      return;
+    }
     alignas(16) unsigned char scratch[(3 * kCellRuns + 1 + 4 * kGroupRowCap) * 4 + kGroupRowCap + 16];
     build(i, OneLane{}, RowScratch::at(scratch, rows.cap));
   }

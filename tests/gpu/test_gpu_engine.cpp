@@ -1112,3 +1112,31 @@ TEST(GpuEngine, GroupedListBuildGivesTheRowsOfBuildRows) {
     }
   }
 }
+
+// A position that becomes non-finite stops the run with a message naming the sphere and its
+// body and pointing at dt_s, not a run that goes on: one body of the packing given a NaN or an
+// infinite velocity before the upload, stepped in runs, with the list checks reading the motion
+// queued before them and waiting for it (BIODEM_GPU_QUEUED_CHECK=0). (The first check after an
+// upload waits either way and finds it; a position that becomes non-finite after a queued
+// motion was read is put in cell 0 by CellOf if a rebuild follows, and found by the next check.)
+TEST(GpuEngine, NonFinitePositionStopsTheRunNamingTheSphere) {
+  for (const double v : {std::nan(""), HUGE_VAL})
+    for (const bool queued : {true, false}) {
+      auto s = packing(0.5e-3);
+      s->bodies_mut().velocity_m_s[7] = Vec3{0.0, v, 0.0};
+      if (!queued) ::setenv("BIODEM_GPU_QUEUED_CHECK", "0", 1);
+      auto e = gpu_engine(*s);
+      ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
+      std::string what;
+      try {
+        e->upload();
+        for (int r = 0; r < 20; ++r) e->advance(7);
+      } catch (const Error& err) {
+        what = err.what();
+      }
+      std::printf("[measured] velocity %g, queued check %d: %s\n", v, queued ? 1 : 0, what.c_str());
+      EXPECT_NE(what.find("has a non-finite position"), std::string::npos) << v << ", queued " << queued << ": " << what;
+      EXPECT_NE(what.find("(of body 7)"), std::string::npos) << what;
+      EXPECT_NE(what.find("dt_s"), std::string::npos) << what;
+    }
+}
