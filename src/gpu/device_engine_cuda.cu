@@ -618,52 +618,19 @@ struct System {
 
 namespace biodem::gpu::cuda_device {
 
-/// A lane's contact as lane `src` of its group holds it (every lane of the group calls it).
-__device__ inline RowContact shuffled(unsigned mask, const RowContact& r, std::uint32_t src, std::uint32_t lanes) {
-  RowContact o;
-  const int w = static_cast<int>(lanes), l = static_cast<int>(src);
-  o.force.x = __shfl_sync(mask, r.force.x, l, w);
-  o.force.y = __shfl_sync(mask, r.force.y, l, w);
-  o.force.z = __shfl_sync(mask, r.force.z, l, w);
-  o.torque.x = __shfl_sync(mask, r.torque.x, l, w);
-  o.torque.y = __shfl_sync(mask, r.torque.y, l, w);
-  o.torque.z = __shfl_sync(mask, r.torque.z, l, w);
-  o.kind = __shfl_sync(mask, r.kind, l, w);
-  return o;
-}
-
-/// Row walks with a group of 2^lanes_log2 lanes per item (kernels.hpp, walk_row): lane l
-/// evaluates contacts l, l + lanes, ... of the walk (each writes only its own entry or wall
-/// slot), and after each round every lane adds the round's contacts in walk order, taken from
-/// their lanes by shuffles; lane 0 ends the walk. The same contacts, added in the same order with
-/// the same operations as one thread walking the row: the same bits. A group never straddles a
-/// warp (lanes <= 32 divides the block), and its lanes leave together (item and walk_begin are
-/// the group's).
-template <class W>
-__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2) {
-  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
-  const std::uint32_t lanes = 1u << lanes_log2, item = t >> lanes_log2, lane = t & (lanes - 1u);
-  if (item >= n) return;
-  WalkStart st;
-  if (!w.walk_begin(item, st)) return;
-  const unsigned first = (threadIdx.x & 31u) & ~(lanes - 1u);
-  const unsigned mask = lanes == 32u ? 0xffffffffu : ((1u << lanes) - 1u) << first;
-  Vec3 f, tq;
-  std::uint32_t count = 0;
-  for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
-    const RowContact mine = w.walk_entry(st, v0 + lane);
-    const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
-    for (std::uint32_t src = 0; src < in_round; ++src) walk_add(shuffled(mask, mine, src, lanes), f, tq, count);
-  }
-  if (lane == 0) w.walk_end(item, st, f, tq, count);
-}
-
-/// A group of 2^lanes_log2 lanes of one warp, for BuildRowsGrouped: ballots and syncs over the
-/// group's lanes only (a group never straddles a warp: its size divides 32 and the block). Its
-/// members are host-device (BuildRowsGrouped::build is) but only mean something on the device.
+/// A group of 2^lanes_log2 lanes of one warp (for_each_walk, for_each_row_build): ballots,
+/// shuffles and syncs over the group's lanes only (a group never straddles a warp: its size
+/// divides 32 and the block). Its members are host-device (walk_row_lanes and
+/// BuildRowsGrouped::build are) but only mean something on the device.
 struct WarpGroup {
   unsigned mask;  // the group's lanes within the warp
   std::uint32_t first, my_lane, count;
+  __device__ static WarpGroup of_thread(std::uint32_t lanes_log2) {
+    const std::uint32_t lanes = 1u << lanes_log2;
+    const unsigned first = (threadIdx.x & 31u) & ~(lanes - 1u);
+    const unsigned mask = lanes == 32u ? 0xffffffffu : ((1u << lanes) - 1u) << first;
+    return WarpGroup{mask, first, threadIdx.x & (lanes - 1u), lanes};
+  }
   __host__ __device__ std::uint32_t lane() const { return my_lane; }
   __host__ __device__ std::uint32_t size() const { return count; }
   __host__ __device__ std::uint32_t ballot(bool b) const {
@@ -679,7 +646,35 @@ struct WarpGroup {
     __syncwarp(mask);
 #endif
   }
+  /// The contact that lane src of the group holds (every lane of the group calls it).
+  __host__ __device__ RowContact shuffle(const RowContact& r, std::uint32_t src) const {
+#ifdef __CUDA_ARCH__
+    RowContact o;
+    const int w = static_cast<int>(count), l = static_cast<int>(src);
+    o.force.x = __shfl_sync(mask, r.force.x, l, w);
+    o.force.y = __shfl_sync(mask, r.force.y, l, w);
+    o.force.z = __shfl_sync(mask, r.force.z, l, w);
+    o.torque.x = __shfl_sync(mask, r.torque.x, l, w);
+    o.torque.y = __shfl_sync(mask, r.torque.y, l, w);
+    o.torque.z = __shfl_sync(mask, r.torque.z, l, w);
+    o.kind = __shfl_sync(mask, r.kind, l, w);
+    return o;
+#else
+    (void)src;
+    return r;
+#endif
+  }
 };
+
+/// Row walks with a group of 2^lanes_log2 lanes per item (kernels.hpp, walk_row_lanes): the
+/// same bits as one thread walking the row. A group never straddles a warp (lanes <= 32 divides
+/// the block), and its lanes leave together (the item is the group's).
+template <class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2) {
+  const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
+  if (item >= n) return;
+  walk_row_lanes(w, item, WarpGroup::of_thread(lanes_log2));
+}
 
 /// Row builds with a group of 2^lanes_log2 lanes per sphere (kernels.hpp, BuildRowsGrouped);
 /// group g of the block has bytes [g * scratch_bytes, (g + 1) * scratch_bytes) of the block's
@@ -688,13 +683,10 @@ template <class B>
 __global__ void __launch_bounds__(kMostThreadsPerBlock)
     for_each_row_build(std::uint32_t n, B b, std::uint32_t lanes_log2, std::uint32_t scratch_bytes) {
   extern __shared__ __align__(16) unsigned char row_build_shared[];
-  const std::uint32_t t = blockIdx.x * blockDim.x + threadIdx.x;
-  const std::uint32_t lanes = 1u << lanes_log2, item = t >> lanes_log2, lane = t & (lanes - 1u);
+  const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
   if (item >= n) return;
-  const unsigned first = (threadIdx.x & 31u) & ~(lanes - 1u);
-  const unsigned mask = lanes == 32u ? 0xffffffffu : ((1u << lanes) - 1u) << first;
-  const WarpGroup grp{mask, first, lane, lanes};
-  b.build(item, grp, RowScratch::at(row_build_shared + (threadIdx.x >> lanes_log2) * scratch_bytes, b.rows.cap));
+  b.build(item, WarpGroup::of_thread(lanes_log2),
+          RowScratch::at(row_build_shared + (threadIdx.x >> lanes_log2) * scratch_bytes, b.rows.cap));
 }
 
 }  // namespace biodem::gpu::cuda_device

@@ -1066,6 +1066,29 @@ BIODEM_HD inline void walk_row(const W& w, std::uint32_t item) {
   w.walk_end(item, st, f, t, count);
 }
 
+/// The same walk shared by a group of lanes (Group: lane(), size(), shuffle(RowContact, src),
+/// the contact lane src of the group holds; on CUDA a group of a warp, for_each_walk): lane l
+/// evaluates contacts l, l + lanes, ... of the walk (each writes only its own entry or wall
+/// slot), then every lane adds the round's contacts in walk order, taken from their lanes; lane
+/// 0 ends the walk. The same contacts added in the same order with the same operations as
+/// walk_row: the same bits (RowWalkLanes.GroupsOfThreadLanesGiveTheSumsOfOneThread). Every lane
+/// of a group makes the same rounds and shuffles: the item, walk_begin and st.total are the
+/// group's.
+template <class W, class Group>
+BIODEM_HD inline void walk_row_lanes(const W& w, std::uint32_t item, const Group& grp) {
+  WalkStart st;
+  if (!w.walk_begin(item, st)) return;
+  const std::uint32_t lanes = grp.size(), lane = grp.lane();
+  Vec3 f, t;
+  std::uint32_t count = 0;
+  for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
+    const RowContact mine = w.walk_entry(st, v0 + lane);
+    const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
+    for (std::uint32_t src = 0; src < in_round; ++src) walk_add(grp.shuffle(mine, src), f, t, count);
+  }
+  if (lane == 0) w.walk_end(item, st, f, t, count);
+}
+
 /// The contact forces on sphere a (one item per sphere): its pair contacts in the order of the
 /// row (stable ids), then its walls in wall order, summed into its force, torque and contact
 /// count (BIODEM_GPU_FORCES=rows). Each pair is evaluated from the side of its lower stable id,

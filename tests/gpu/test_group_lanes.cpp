@@ -1,17 +1,23 @@
-// The grouped list build (gpu/kernels.hpp, BuildRowsGrouped) with groups of 2 to 32 lanes, each
-// lane a CPU thread: ballots and syncs through a barrier, the lanes' scratch shared as a warp's
-// shared memory is on a GPU. The engine on CPU threads runs the build as a group of one lane, so
-// only this test covers, without a GPU, what the lanes of a group do together: the slots taken
-// by a ballot, the placement by rank, the old row's history handed over by several lanes, and
-// the syncs between those phases (a missing sync shows as a mismatch here or a race under
-// ThreadSanitizer). Against BuildRows (one thread per row): lengths, neighbours, stable ids,
-// image shifts, touching flags and history bytes of every row must be equal.
+// The GPU kernels that a group of lanes of a warp shares on CUDA, run with each lane a CPU
+// thread (ballots, shuffles and syncs through a barrier, the group's scratch shared as a warp's
+// shared memory is): the engine on CPU threads runs them as groups of one lane, so only these
+// tests cover, without a GPU, what the lanes of a group do together (a missing sync shows as a
+// mismatch here or a race under ThreadSanitizer).
 //
-// Scenes (8): random spheres (some bodies of two) in grids with every combination of periodic and
-// bounded axes, 3 to 6 cells along a periodic axis, positions up to two periods away, stable ids
-// shuffled; old rows built at another skin with random touching flags and history, with and
-// without a reordering of the old columns (a sort of the bodies); row capacities 16, 49, 128,
-// rows that overflow included (their length only).
+// 1. The grouped list build (gpu/kernels.hpp, BuildRowsGrouped) with groups of 1, 4 and 32
+// lanes: the slots taken by a ballot, the placement by rank, the old row's history handed over
+// by several lanes. Against BuildRows (one thread per row): lengths, neighbours, stable ids,
+// image shifts, touching flags and history bytes of every row must be equal. Scenes (8): random
+// spheres (some bodies of two) in grids with every combination of periodic and bounded axes, 3
+// to 6 cells along a periodic axis, positions up to two periods away, stable ids shuffled; old
+// rows built at another skin with random touching flags and history, with and without a
+// reordering of the old columns (a sort of the bodies); row capacities 16, 49, 128, rows that
+// overflow included (their length only).
+//
+// 2. The row walk shared by lanes (walk_row_lanes, what for_each_walk runs on CUDA) with groups
+// of 2, 4, 16 and 32 lanes: the same sums, bit for bit, as one thread walking the row
+// (walk_row), over walks of 0 to 40 contacts whose values span six decades (so that any other
+// order of the additions gives other bits), and the walk ended once, by lane 0.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -34,7 +40,9 @@ namespace {
 struct GroupState {
   std::barrier<> bar;
   std::vector<std::uint8_t> votes;
-  explicit GroupState(std::uint32_t lanes) : bar(static_cast<std::ptrdiff_t>(lanes)), votes(lanes) {}
+  std::vector<RowContact> contacts;
+  explicit GroupState(std::uint32_t lanes)
+      : bar(static_cast<std::ptrdiff_t>(lanes)), votes(lanes), contacts(lanes) {}
 };
 struct ThreadLanes {
   GroupState* g;
@@ -50,6 +58,13 @@ struct ThreadLanes {
     return bits;
   }
   void sync() const { g->bar.arrive_and_wait(); }
+  RowContact shuffle(const RowContact& r, std::uint32_t src) const {
+    g->contacts[me] = r;
+    g->bar.arrive_and_wait();
+    const RowContact o = g->contacts[src];
+    g->bar.arrive_and_wait();  // (read before the next shuffle writes)
+    return o;
+  }
 };
 
 /// Row arrays held in vectors, filled with a marker so that an entry left unwritten shows.
@@ -290,4 +305,84 @@ TEST(RowBuildLanes, GroupsOfThreadLanesGiveTheRowsOfBuildRows) {
   EXPECT_GT(overflowing, 100u) << "rows must overflow the capacity for the test to mean anything";
   EXPECT_GT(touching, 1000u) << "old contacts must hand their history over for the test to mean anything";
   EXPECT_GT(across, 1000u) << "rows must cross periodic boundaries for the test to mean anything";
+}
+
+namespace {
+
+/// A walk with made-up contacts: item i's walk has (i * 7) % 41 contacts (none for every 11th
+/// item, whose walk_begin says there is nothing to do), each of kind 0-3 with a force and torque
+/// from a hash of (item, contact), magnitudes from 1e-3 to 1e3.
+struct MadeUpWalk {
+  Vec3* force;
+  Vec3* torque;
+  std::uint32_t* count;
+  std::uint32_t* ends;  // walk_end calls per item
+  static std::uint64_t hash(std::uint64_t x) {
+    x += 0x9e3779b97f4a7c15ull;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+  }
+  static double value(std::uint64_t h) {
+    return std::ldexp(static_cast<double>(h >> 11) * 0x1.0p-53 - 0.5, static_cast<int>(h % 21) - 10);
+  }
+  bool walk_begin(std::uint32_t item, WalkStart& st) const {
+    if (item % 11 == 10) return false;
+    st.a = item;
+    st.total = (item * 7) % 41;
+    st.len = st.total * 2 / 3;
+    return true;
+  }
+  RowContact walk_entry(const WalkStart& st, std::uint32_t v) const {
+    RowContact r;
+    if (v >= st.total) return r;  // (past the walk's end, as Forces)
+    const std::uint64_t h = hash((static_cast<std::uint64_t>(st.a) << 32) | v);
+    r.kind = static_cast<std::uint32_t>(h % 4);
+    r.force = Vec3{value(hash(h + 1)), value(hash(h + 2)), value(hash(h + 3))};
+    r.torque = Vec3{value(hash(h + 4)), value(hash(h + 5)), value(hash(h + 6))};
+    return r;
+  }
+  void walk_end(std::uint32_t item, const WalkStart&, const Vec3& f, const Vec3& t, std::uint32_t c) const {
+    force[item] = f;
+    torque[item] = t;
+    count[item] = c;
+    ++ends[item];
+  }
+};
+
+}  // namespace
+
+TEST(RowWalkLanes, GroupsOfThreadLanesGiveTheSumsOfOneThread) {
+  constexpr std::uint32_t kItems = 300;
+  std::vector<Vec3> f1(kItems, Vec3{-1, -1, -1}), t1(kItems, Vec3{-1, -1, -1});  // (untouched where nothing to do)
+  std::vector<std::uint32_t> c1(kItems, 12345), e1(kItems, 0);
+  const MadeUpWalk one{f1.data(), t1.data(), c1.data(), e1.data()};
+  for (std::uint32_t i = 0; i < kItems; ++i) walk_row(one, i);
+  std::size_t contacts = 0;
+  for (std::uint32_t i = 0; i < kItems; ++i) contacts += e1[i] ? c1[i] : 0;
+  for (const std::uint32_t lanes : {2u, 4u, 16u, 32u}) {
+    std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
+    std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
+    const MadeUpWalk grouped{f.data(), t.data(), c.data(), e.data()};
+    GroupState state(lanes);
+    std::vector<std::thread> team;
+    for (std::uint32_t l = 0; l < lanes; ++l)
+      team.emplace_back([&, l] {
+        const ThreadLanes me{&state, l, lanes};
+        for (std::uint32_t i = 0; i < kItems; ++i) walk_row_lanes(grouped, i, me);
+      });
+    for (auto& th : team) th.join();
+    std::size_t differ = 0;
+    for (std::uint32_t i = 0; i < kItems; ++i) {
+      const bool same = std::memcmp(&f[i], &f1[i], sizeof(Vec3)) == 0 && std::memcmp(&t[i], &t1[i], sizeof(Vec3)) == 0 &&
+                        c[i] == c1[i] && e[i] == e1[i];
+      differ += !same;
+    }
+    EXPECT_EQ(differ, 0u) << lanes << " lanes";
+    std::printf("[measured] row walk with %u lanes vs one thread: %u walks, %zu contacts counted, %zu walks differ\n",
+                lanes, kItems, contacts, differ);
+  }
+  EXPECT_GT(contacts, 1000u);
+  EXPECT_EQ(e1[10], 0u);  // (walk_begin said nothing to do)
+  EXPECT_EQ(e1[11], 1u);
 }
