@@ -706,7 +706,11 @@ decltype(auto) thrust_errors_named(const char* what, F&& f) {
       throw_cuda(static_cast<cudaError_t>(e.code().value()), std::string("a Thrust call of ") + what + " (" + e.what() + ")");
     throw Error(std::string("GPU engine: ") + what + ": " + e.what());
   } catch (const std::bad_alloc& e) {
-    throw Error(std::string("GPU engine: out of memory in ") + what + " (" + e.what() + ")");
+    // Thrust's device allocations throw bad_alloc for any failed cudaMalloc, also the one that
+    // meets a fault's lost context: that is a DeviceFault.
+    if (const cudaError_t st = cudaDeviceSynchronize(); context_lost(st))
+      throw_cuda(st, std::string("an allocation in ") + what + " (" + e.what() + ")");
+    throw Error(std::string("GPU engine: out of memory (device or host) in ") + what + " (" + e.what() + ")");
   }
 }
 

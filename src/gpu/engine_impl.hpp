@@ -1277,13 +1277,22 @@ inline void Engine::check_list() {
   }
   if (room < check_every_ * per_step) {
     const auto t1 = Clock::now();
-    // Built with the box of the motion read, `lag` steps old, without a reduction and a wait of
-    // its own: a sphere that has left that box since is put in the nearest edge cell (CellOf
-    // clamps), which keeps every pair within the cut-off in neighbouring cells, so the rows are
-    // the same as with the box of now (and the results: they do not depend on the grid). Its
-    // positions were finite `lag` steps ago; a position that became non-finite since lands in
-    // cell 0 (CellOf) and stops the run at the next check. The next check is set by the speed
-    // read (`lag` steps old; before, the speed of now), with the factor 2 for acceleration.
+    // With the motion read one step old (lag 1), that step's positions are the last the old
+    // list was used at (the positions of now get their forces with the new list), so the check
+    // above covered the old list to its end, and the build goes on with that motion's box,
+    // without a reduction and a wait of its own: a sphere that has left the box since is put in
+    // the nearest edge cell (CellOf clamps), which keeps every pair within the cut-off in
+    // neighbouring cells, so the rows are the same as with the box of now (and the results: they
+    // do not depend on the grid); a position that became non-finite since is kept out of every
+    // row (the cut-off test fails) and stops the run at the next check. The next check is set by
+    // that speed, with the factor 2 for acceleration. With an older motion (lag 2 or more: a run
+    // of steps that ended between two checks made a step with the old list that no queued
+    // motion saw), the motion of now is reduced and checked first, as every rebuild did before.
+    if (lagged && lag > 1) {
+      m = motion_now();
+      check_motion(m, 0);
+      per_step = 2.0 * dt_ * std::sqrt(m.speed2);
+    }
     build_list(&m.box);
     room = half_skin;
     if (profile_.on) {

@@ -268,8 +268,10 @@ struct CellOf {
   Int3* cell;
   BIODEM_HD void operator()(std::uint32_t i) const {
     int c[3], w[3] = {0, 0, 0};
-    // A sphere outside the grid (the box of a list check some steps old) goes to the nearest
-    // edge cell; a non-finite position (which the next list check reports) to cell 0, image 0.
+    // A sphere outside the grid (the box of the list check one step before) goes to the
+    // nearest edge cell. A non-finite coordinate (which the next list check reports; the
+    // cut-off test keeps the sphere out of every row) goes to an edge cell too: NaN and -inf to
+    // cell 0, +inf to the last on a bounded axis; cell 0, image 0 on a periodic one.
     for (int k = 0; k < 3; ++k) {
       double x = s.position[i][k] - g.lo[k];
       const int nk = k == 0 ? g.n.x : (k == 1 ? g.n.y : g.n.z);

@@ -14,6 +14,8 @@
 // reordering of the old columns (a sort of the bodies); row capacities 16, 49, 128, rows that
 // overflow included (their length only).
 //
+// (3, below, needs no lanes: the list from a stale box and non-finite positions.)
+//
 // 2. The row walk shared by lanes (walk_row_lanes, what for_each_walk runs on CUDA) with groups
 // of 2, 4, 16 and 32 lanes: the same sums, bit for bit, as one thread walking the row
 // (walk_row), over walks of 0 to 40 contacts whose values span six decades (so that any other
@@ -22,6 +24,7 @@
 
 #include <algorithm>
 #include <barrier>
+#include <cmath>
 #include <cstring>
 #include <numeric>
 #include <random>
@@ -385,4 +388,157 @@ TEST(RowWalkLanes, GroupsOfThreadLanesGiveTheSumsOfOneThread) {
   EXPECT_GT(contacts, 1000u);
   EXPECT_EQ(e1[10], 0u);  // (walk_begin said nothing to do)
   EXPECT_EQ(e1[11], 1u);
+}
+
+// 3. A list built with the box of the list check's motion, one step old (Engine::check_list), on
+// spheres that have moved since, some outside that box, and some with non-finite or huge
+// coordinates (a run becoming unstable): CellOf puts every sphere in a cell of the grid (no cell
+// key out of range), and BuildRows and BuildRowsGrouped both give exactly the brute-force rows
+// of the finite spheres (periodic minimum image), with no non-finite sphere in any row. Scenes:
+// 160 random ones, every combination of periodic and bounded axes, spheres moved since the box
+// by up to 0, 0.5, 1 or 1.5 cut-offs.
+TEST(RowBuild, StaleBoxAndNonFinitePositionsGiveTheBruteForceRows) {
+  std::size_t rows = 0, pairs = 0, outside = 0, out_of_range = 0, bad = 0;
+  for (std::uint64_t seed = 0; seed < 160; ++seed) {
+    std::mt19937_64 gen(1000 + seed);
+    const std::uint32_t n = 60 + static_cast<std::uint32_t>(gen() % 160);
+    const double rmax = 0.5, skin = 0.05 + 0.6 * uniform(gen), cut = 2.0 * rmax + skin;
+    bool periodic[3];
+    double len[3], lo[3];
+    for (int k = 0; k < 3; ++k) {
+      periodic[k] = (seed >> k) & 1u;
+      len[k] = static_cast<double>(3 + gen() % 5) * cut * (1.0 + 0.3 * uniform(gen));
+      lo[k] = -3.0 + 6.0 * uniform(gen);
+    }
+    const double moved = static_cast<double>(seed % 4) * 0.5 * cut;  // since the box was taken
+    std::vector<Vec3> pos(n), then(n), zero3(n);
+    std::vector<double> radius(n), zero1(n);
+    std::vector<std::uint32_t> body(n), sid(n), zero_u(n);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        then[i][k] = lo[k] + uniform(gen) * len[k] +
+                     (periodic[k] ? static_cast<double>(static_cast<int>(gen() % 7) - 3) * len[k] : 0.0);
+        pos[i][k] = then[i][k] + (2.0 * uniform(gen) - 1.0) * moved;
+      }
+      radius[i] = rmax * (0.3 + 0.7 * uniform(gen));
+      body[i] = i % 4 == 1 ? i - 1 : i;
+    }
+    if (seed % 5 == 0) {  // a run becoming unstable
+      pos[3] = Vec3{std::nan(""), 0.0, 0.0};
+      pos[5] = Vec3{HUGE_VAL, HUGE_VAL, -HUGE_VAL};
+      pos[7] = Vec3{0.0, -HUGE_VAL, std::nan("")};
+      pos[9] = Vec3{1e300, -1e300, 1e200};
+    }
+    std::iota(sid.begin(), sid.end(), 0u);
+    std::shuffle(sid.begin(), sid.end(), gen);
+    // The box of the positions `then` (the motion read) and the grid as Engine::build_list.
+    Vec3 blo{1e300, 1e300, 1e300}, bhi{-1e300, -1e300, -1e300};
+    for (const Vec3& p : then)
+      for (int k = 0; k < 3; ++k) {
+        blo[k] = std::min(blo[k], p[k]);
+        bhi[k] = std::max(bhi[k], p[k]);
+      }
+    double cell = cut;
+    for (int it = 0; it < 64; ++it) {
+      double cells = 1.0;
+      for (int k = 0; k < 3; ++k) cells *= std::max(1.0, std::floor((periodic[k] ? len[k] : bhi[k] - blo[k]) / cell));
+      if (cells <= 4.0 * n + 27.0) break;
+      cell *= 1.26;
+    }
+    GridParams g;
+    g.cell = cell;
+    int nn[3];
+    bool too_short = false;
+    for (int k = 0; k < 3; ++k) {
+      g.periodic[k] = periodic[k];
+      if (periodic[k]) {
+        g.lo[k] = lo[k];
+        g.period[k] = len[k];
+        nn[k] = static_cast<int>(std::floor(len[k] / cell));
+        too_short = too_short || nn[k] < 3;  // (the engine refuses these)
+      } else {
+        g.lo[k] = blo[k];
+        nn[k] = std::max(1, static_cast<int>(std::floor((bhi[k] - blo[k]) / cell)) + 1);
+      }
+    }
+    if (too_short) continue;
+    g.n = Int3{nn[0], nn[1], nn[2]};
+    const std::uint32_t ncell = static_cast<std::uint32_t>(nn[0] * nn[1] * nn[2]);
+    const SphereArrays s{pos.data(),    zero3.data(), zero3.data(),  zero3.data(), zero3.data(),
+                         zero3.data(),  zero3.data(), radius.data(), zero1.data(), body.data(),
+                         zero_u.data(), sid.data(),   zero_u.data()};
+    std::vector<std::uint32_t> key(n);
+    std::vector<Int3> wrap(n), cells(n);
+    const CellOf cell_of{s, g, key.data(), wrap.data(), cells.data()};
+    for (std::uint32_t i = 0; i < n; ++i) {
+      cell_of(i);
+      out_of_range += key[i] >= ncell;
+      for (int k = 0; k < 3; ++k)
+        outside += !periodic[k] && std::isfinite(pos[i][k]) && (pos[i][k] < blo[k] || pos[i][k] > bhi[k]);
+    }
+    if (out_of_range) break;
+    std::vector<std::uint32_t> sorted(n), sorted_key(n), cell_start(ncell + 1);
+    std::iota(sorted.begin(), sorted.end(), 0u);
+    std::stable_sort(sorted.begin(), sorted.end(), [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+    for (std::uint32_t p = 0; p < n; ++p) sorted_key[p] = key[sorted[p]];
+    for (std::uint32_t c = 0; c <= ncell; ++c)
+      cell_start[c] = static_cast<std::uint32_t>(std::lower_bound(sorted_key.begin(), sorted_key.end(), c) - sorted_key.begin());
+    std::vector<Vec3> p_pos(n);
+    std::vector<double> p_radius(n);
+    std::vector<std::uint32_t> p_body(n), p_sid(n);
+    std::vector<Int3> p_wrap(n);
+    const CellPacked packed{p_pos.data(), p_radius.data(), p_body.data(), p_sid.data(), p_wrap.data()};
+    const PackByCell pack{s, sorted.data(), wrap.data(), packed};
+    for (std::uint32_t p = 0; p < n; ++p) pack(p);
+    HostRows none, serial, grouped;
+    none.reset(n, 1);
+    std::fill(none.length.begin(), none.length.end(), 0u);
+    serial.reset(n, 128);
+    grouped.reset(n, 128);
+    const RowBuildArgs a{s, g, sorted.data(), cell_start.data(), packed, wrap.data(), cells.data(), none.arrays(),
+                         serial.arrays(), n, skin, nullptr};
+    RowBuildArgs b = a;
+    b.rows = grouped.arrays();
+    const BuildRows build_serial{a};
+    const BuildRowsGrouped build_grouped{b};
+    for (std::uint32_t i = 0; i < n; ++i) {
+      build_serial(i);
+      build_grouped(i);
+    }
+    auto sane = [&](std::uint32_t q) {
+      return std::abs(pos[q].x) < 1e10 && std::abs(pos[q].y) < 1e10 && std::abs(pos[q].z) < 1e10;
+    };
+    for (std::uint32_t i = 0; i < n; ++i) {
+      std::vector<std::uint32_t> want;
+      for (std::uint32_t j = 0; j < n && sane(i); ++j) {
+        if (body[j] == body[i] || !sane(j)) continue;
+        Vec3 dv = pos[i] - pos[j];
+        for (int k = 0; k < 3; ++k)
+          if (periodic[k]) dv[k] -= len[k] * std::round(dv[k] / len[k]);
+        const double c = radius[i] + radius[j] + skin;
+        if (norm2(dv) < c * c) want.push_back(j);
+      }
+      std::sort(want.begin(), want.end());
+      auto row = [&](const HostRows& r) {
+        std::vector<std::uint32_t> got;
+        for (std::uint32_t q = 0; q < r.length[i] && q < r.cap; ++q) got.push_back(r.j[static_cast<std::size_t>(q) * n + i]);
+        std::sort(got.begin(), got.end());
+        return got;
+      };
+      ++rows;
+      pairs += want.size();
+      const bool ok = serial.length[i] <= 128 && row(serial) == want && row(grouped) == want &&
+                      grouped.length[i] == serial.length[i];
+      if (!ok && bad++ < 5)
+        ADD_FAILURE() << "seed " << seed << " row " << i << ": " << want.size() << " neighbours by brute force, "
+                      << serial.length[i] << " and " << grouped.length[i] << " in the rows";
+    }
+  }
+  std::printf("[measured] lists from a stale box: %zu rows, %zu neighbours, %zu sphere coordinates outside the box, "
+              "%zu cell keys out of range, %zu rows unlike brute force\n",
+              rows, pairs, outside, out_of_range, bad);
+  EXPECT_EQ(out_of_range, 0u);
+  EXPECT_EQ(bad, 0u);
+  EXPECT_GT(outside, 500u) << "spheres must have left the box for the test to mean anything";
+  EXPECT_GT(pairs, 10000u);
 }
