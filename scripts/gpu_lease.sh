@@ -135,6 +135,10 @@ if [ -n "${GPU_LEASE_RETURN:-}" ]; then
 fi
 echo; cat "$O/lease.log"; echo
 for b in bench bench_entries bench_rows bench_fmad; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+# (which kernels the default runs picked, and the list builds: run.log of each bench drum)
+for f in "$O"/bench/gpu_*/run.log; do
+  [ -f "$f" ] && { echo "== $(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300; }
+done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
 [ -f "$O/sweep/profile.txt" ] && { echo "== profile (BIODEM_GPU_PROFILE=1)"; cat "$O/sweep/profile.txt"; }
 [ -f "$O/scaling.txt" ] && { echo "== scaling"; cat "$O/scaling_results.csv" 2>/dev/null; tail -n 12 "$O/scaling.txt"; }
