@@ -1197,29 +1197,41 @@ struct ReduceKick {
 /// template order, the second half kick with the sums, then half kick, drift and turn with the
 /// same force and torque, then the spheres), so the same bits; the body's state stays in
 /// registers between the two halves instead of going through memory.
+/// Body k's state, loaded into registers (ReduceKickDrift, SumEntriesKickDrift).
+struct BodyState {
+  std::uint32_t s0, ns;
+  double m;
+  Vec3 x, inertia, v, w, l;
+  Quat q;
+};
+BIODEM_HD inline BodyState load_body(const BodyArrays& b, std::uint32_t k) {
+  return BodyState{b.first_sphere[k], b.sphere_count[k], b.mass[k],     b.position[k], b.inertia[k],
+                   b.velocity[k],     b.omega[k],        b.ang_momentum[k], b.orientation[k]};
+}
+
 struct ReduceKickDrift {
   BodyArrays b;
   SphereArrays s;
   Vec3 gravity;
   double h, dt;
   const std::uint32_t* halt;
+  /// The rest of body k's step from its force and torque: both stored, the second half kick of
+  /// step c, then the half kick, drift and turn of step c + 1 in registers, the state stored once.
+  BIODEM_HD void finish(std::uint32_t k, BodyState st, const Vec3& f, const Vec3& t) const {
+    b.force[k] = f;
+    b.torque[k] = t;
+    integrate::half_kick(st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, h);
+    integrate::kick_and_drift(st.x, st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, h, dt);
+    store_body(b, s, k, st.s0, st.ns, st.x, st.v, st.w, st.l, st.q);
+  }
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
     // Every load of the body's state before the first store (its force), so that none waits
     // behind a store it might alias; then the halves in registers and the state stored once.
-    const std::uint32_t s0 = b.first_sphere[k], ns = b.sphere_count[k];
-    const double m = b.mass[k];
-    Vec3 x = b.position[k];
-    const Vec3 inertia = b.inertia[k];
-    Vec3 v = b.velocity[k], w = b.omega[k], l = b.ang_momentum[k];
-    Quat q = b.orientation[k];
+    const BodyState st = load_body(b, k);
     Vec3 f, t;
     body_sums(b, s, k, gravity, f, t);
-    b.force[k] = f;
-    b.torque[k] = t;
-    integrate::half_kick(v, w, l, q, m, inertia, ns, f, t, h);
-    integrate::kick_and_drift(x, v, w, l, q, m, inertia, ns, f, t, h, dt);
-    store_body(b, s, k, s0, ns, x, v, w, l, q);
+    finish(k, st, f, t);
   }
 };
 
@@ -1233,14 +1245,25 @@ struct SumEntriesKickDrift {
   ReduceKickDrift rkd;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(rkd.halt)) return;
+    // The body's state and its sphere's centre are loaded after the sums (loaded with the
+    // entries they cost registers the entry loads need: spills) but before the first store, and
+    // the body sums take the sphere's sums from registers (before: the body's state loaded after
+    // the sphere's sums were stored, and those sums then read back from memory).
     const std::uint32_t a = rkd.b.first_sphere[k];
-    Vec3 f, t;
+    Vec3 fs, ts;
     std::uint32_t count = 0;
-    c.sum_entries(a, c.s.sid[a], c.rows.length[a], f, t, count);
-    c.s.force[a] = f;
-    c.s.torque[a] = t;
+    c.sum_entries(a, c.s.sid[a], c.rows.length[a], fs, ts, count);
+    const BodyState st = load_body(rkd.b, k);
+    const Vec3 p = c.s.position[a];
+    c.s.force[a] = fs;
+    c.s.torque[a] = ts;
     c.s.contacts[a] = count;
-    rkd(k);
+    // body_sums of a body of one sphere, on the values just stored: the same operations on the
+    // same values, so the same bits.
+    Vec3 f = st.m * rkd.gravity, t{};
+    f += fs;
+    t += ts + cross(p - st.x, fs);
+    rkd.finish(k, st, f, t);
   }
 };
 
