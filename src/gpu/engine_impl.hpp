@@ -761,15 +761,29 @@ inline void Engine::build_list(const Box* known_box) {
   GridParams g;
   const Vec3 len = domain_.length_m();
   double cell = cutoff;
-  for (int iter = 0; iter < 64; ++iter) {  // at most ~4 cells per sphere (sparse scenes), as the CPU list
+  // Cells along a periodic axis: a whole number of at least the cut-off, as many as the cells of
+  // the other axes' size fit, but never fewer than 3 while the period holds 3 cut-offs (so that a
+  // sparse bed, or a sphere far away on another axis, coarsening the cells does not make the
+  // period too short for the list).
+  auto periodic_cells = [&](int k, double c) {
+    const double fine = std::floor(len[k] / cutoff), coarse = std::floor(len[k] / c);
+    return std::max(std::min(3.0, fine), coarse);
+  };
+  bool sized = false;
+  // At most ~4 cells per sphere (sparse scenes), as the CPU list; up to 4096 enlargements, enough
+  // for any finite extent (a sphere far away cannot make the 32-bit cell keys overflow).
+  for (int iter = 0; iter < 4096 && !sized; ++iter) {
     double cells = 1.0;
-    for (int k = 0; k < 3; ++k) {
-      const double extent = domain_.periodic[k] ? len[k] : box.hi[k] - box.lo[k];
-      cells *= std::max(1.0, std::floor(extent / cell));
-    }
-    if (cells <= 4.0 * static_cast<double>(n) + 27.0) break;
-    cell *= 1.26;
+    for (int k = 0; k < 3; ++k)
+      cells *= std::max(1.0, domain_.periodic[k] ? periodic_cells(k, cell) : std::floor((box.hi[k] - box.lo[k]) / cell));
+    sized = cells <= 4.0 * static_cast<double>(n) + 27.0;
+    if (!sized) cell *= 1.26;
   }
+  if (!sized)  // (not expected: positions are finite here)
+    throw Error("GPU engine: the spheres span " + std::to_string(box.hi.x - box.lo.x) + " x " +
+                std::to_string(box.hi.y - box.lo.y) + " x " + std::to_string(box.hi.z - box.lo.z) +
+                " m at t = " + std::to_string(host_.time_s()) +
+                " s, too wide for the neighbour grid (has a sphere flown far away?)");
   g.cell = cell;
   int nn[3];
   for (int k = 0; k < 3; ++k) {
@@ -785,7 +799,7 @@ inline void Engine::build_list(const Box* known_box) {
       if (!(w <= 60.0))
         throw Error("a sphere is " + std::to_string(w) + " periodic lengths away along axis " + std::to_string(k) +
                     " (at most 60 are supported)");
-      nn[k] = static_cast<int>(std::floor(len[k] / cell));
+      nn[k] = static_cast<int>(periodic_cells(k, cell));
       if (nn[k] < 3)
         throw Error("periodic length along axis " + std::to_string(k) +
                     " is shorter than 3 neighbour cells (largest sphere diameter + skin)");

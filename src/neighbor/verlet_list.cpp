@@ -45,12 +45,17 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
   double cell = cutoff;
   // (Up to 4096 enlargements: enough for any finite extent, so a far-away sphere cannot make the
   // grid, or a cell index, exceed what an int holds.)
+  // Cells along a periodic axis: a whole number of at least the cut-off, as many as cells of the
+  // other axes' size fit, but never fewer than 3 while the period holds 3 cut-offs (so that a
+  // sparse bed, or a sphere far away on another axis, coarsening the cells does not make the
+  // period too short for the list).
+  auto periodic_cells = [&](int k, double c) {
+    return std::max(std::min(3.0, std::floor(len[k] / cutoff)), std::floor(len[k] / c));
+  };
   for (int iter = 0; iter < 4096; ++iter) {
     double cells = 1.0;
-    for (int k = 0; k < 3; ++k) {
-      const double extent = dom.periodic[k] ? len[k] : hi[k] - lo[k];
-      cells *= std::max(1.0, std::floor(extent / cell));
-    }
+    for (int k = 0; k < 3; ++k)
+      cells *= std::max(1.0, dom.periodic[k] ? periodic_cells(k, cell) : std::floor((hi[k] - lo[k]) / cell));
     if (cells <= 4.0 * static_cast<double>(std::max<std::size_t>(n, 1)) + 27.0) break;
     cell *= 1.26;
   }
@@ -58,7 +63,7 @@ Grid make_grid(const state::SphereStore& s, const Domain& dom, double cutoff) {
   for (int k = 0; k < 3; ++k) {
     if (dom.periodic[k]) {
       g.lo[k] = dom.lo_m[k];
-      g.n[k] = static_cast<int>(std::floor(len[k] / cell));
+      g.n[k] = static_cast<int>(periodic_cells(k, cell));
       if (g.n[k] < 3)
         throw Error("periodic length along axis " + std::to_string(k) +
                     " is shorter than 3 neighbour cells (largest sphere diameter + skin)");

@@ -256,6 +256,28 @@ TEST(GpuEngine, SphereTooManyPeriodsAwayIsAnError) {
   f->advance(20);
 }
 
+// A sphere far away on a bounded axis coarsens the neighbour cells (at most ~4 per sphere): the
+// periodic axis (12 mm) keeps 3 cells however coarse the cells of the other axes become (before:
+// "periodic length ... shorter than 3 neighbour cells" once a sphere was ~0.5 m away, on both
+// engines), and however far the sphere (up to 1e9 m) the cell keys stay within 32 bits (before,
+// the device grid stopped coarsening after 64 steps and its cell count could overflow an int).
+// The packing without its cylinder (a sphere outside it would be a wall contact) and one sphere
+// x away, 200 steps on each engine: the same positions to round-off.
+TEST(GpuEngine, SphereFarAwayKeepsTheListWorking) {
+  for (const double x : {0.5, 1e3, 1e9}) {
+    auto t = packing(-1.0, false), c = packing(-1.0, false);
+    add_particle(*t, 0, {x, 1.5e-3, 1.5e-3}, {0, 0, 0});
+    add_particle(*c, 0, {x, 1.5e-3, 1.5e-3}, {0, 0, 0});
+    auto f = gpu_engine(*t);
+    f->upload();
+    EXPECT_EQ(f->advance(200).steps, 200u);
+    f->download(true);
+    for (int k = 0; k < 200; ++k) c->step();
+    EXPECT_LT(worst_position_gap(*t, *c), 1e-9) << x << " m away";
+    EXPECT_GT(t->contact_count(), 3u);  // (contacts in the packing, evaluated alike)
+  }
+}
+
 // The device list holds exactly the pairs of spheres of different bodies closer than
 // r_i + r_j + skin (periodic minimum image), each pair in both spheres' rows. Scene: 1,200
 // bodies (spheres of two sizes and needles) at random positions in a box periodic along z.
