@@ -91,6 +91,14 @@ run_biodem() {  # label case out extra-args... -> exit status; output in $logs/l
   "${TMO[@]}" "$bin" run "$casefile" --out "$out" --threads "$THREADS" "$@" > "$logs/$label.txt" 2>&1
 }
 
+variant_same() {  # ref-dir label VAR=value... -> status 0 when the needle drum run on the GPU with
+  # those variables is byte-identical to ref-dir; else prints why (3i, 3j)
+  local ref=$1 label=$2 diff
+  shift 2
+  ( export "$@"; run_biodem "$label" "$needles" "$OUT/$label" --device gpu ) || { echo "run failed"; return 1; }
+  diff=$(same_files "$ref" "$OUT/$label") || { echo "differ: $(echo $diff)"; return 1; }
+}
+
 same_files() {  # dirA dirB -> prints the files that differ or are missing; status 0 if all equal
   local a=$1 b=$2 bad=0 f
   for f in series.csv trace.csv checkpoint.bin snapshots.pvd bodies.pvd $(cd "$a" && ls snapshots/*.vtu 2>/dev/null); do
@@ -256,13 +264,9 @@ fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 32; do
     for block in 32 512; do
-      BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=$lanes BIODEM_GPU_BLOCK=$block \
-        run_biodem "needles_lanes${lanes}_block$block" "$needles" "$OUT/needles_lanes${lanes}_block$block" --device gpu
-      if [ $? -ne 0 ]; then
-        lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block: run failed"
-      elif ! d=$(same_files "$OUT/needles_rows" "$OUT/needles_lanes${lanes}_block$block"); then
-        lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block differ: $(echo $d)"
-      fi
+      why=$(variant_same "$OUT/needles_rows" "needles_lanes${lanes}_block$block" BIODEM_GPU_FORCES=rows \
+            BIODEM_GPU_ROW_LANES=$lanes BIODEM_GPU_BLOCK=$block) ||
+        { lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block: $why"; }
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 32 lanes x blocks of 32, 512 byte-identical to 16 lanes, 128"
@@ -281,13 +285,9 @@ fi
 if [ "$DEVICE" = gpu ] && [ $build_ok = 1 ]; then
   for lb in 2:512 8:128 32:128; do
     lanes=${lb%:*}; block=${lb#*:}
-    BIODEM_GPU_BUILD_LANES=$lanes BIODEM_GPU_BLOCK=$block \
-      run_biodem "needles_build${lanes}_block$block" "$needles" "$OUT/needles_build${lanes}_block$block" --device gpu
-    if [ $? -ne 0 ]; then
-      build_ok=0; build_detail="$build_detail; $lanes lanes, blocks of $block: run failed"
-    elif ! d=$(same_files "$OUT/needles_a" "$OUT/needles_build${lanes}_block$block"); then
-      build_ok=0; build_detail="$build_detail; $lanes lanes, blocks of $block differ: $(echo $d)"
-    fi
+    why=$(variant_same "$OUT/needles_a" "needles_build${lanes}_block$block" BIODEM_GPU_BUILD_LANES=$lanes \
+          BIODEM_GPU_BLOCK=$block) ||
+      { build_ok=0; build_detail="$build_detail; $lanes lanes, blocks of $block: $why"; }
   done
   [ $build_ok = 1 ] && build_detail="$build_detail; grouped with 2 lanes (blocks of 512), 8 and 32 byte-identical to 16"
 fi

@@ -239,6 +239,24 @@ TEST(GpuRuns, CudaSwitchesAreCheckedBeforeTheDevice) {
   }
 }
 
+namespace {
+/// A run ended by a device fault: status 2 and one "biodem: error: GPU engine:" line (on CPU
+/// threads the injected fault's own), no fallback line (a queued check or graph given up as if
+/// the run could go on), no std::terminate. On a GPU the fault may surface first in a Thrust
+/// call: the engine names its CUDA error as its own (not "internal error"; gpu_check 3h forces
+/// that case).
+void expect_one_fault_line(const CommandResult& r) {
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("biodem: error: GPU engine: "), std::string::npos) << r.output;
+  if (gpu_device() == "gpu-emulated") {
+    EXPECT_NE(r.output.find("biodem: error: GPU engine: a kernel faulted on the device"), std::string::npos)
+        << r.output;
+  }
+  EXPECT_EQ(r.output.find("for the rest of the run"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("terminate called"), std::string::npos) << r.output;
+}
+}  // namespace
+
 // A fault on the device (test hook BIODEM_TEST_GPU_FAULT_AT_STEP: on a GPU a kernel that traps
 // and breaks the CUDA context; on CPU threads the error such a fault gives) ends the run with
 // one error line, not std::terminate, and the run resumes from its last checkpoint to the same
@@ -249,17 +267,7 @@ TEST(GpuRuns, DeviceFaultEndsTheRunWithOneLineAndItResumes) {
   ASSERT_EQ(r0.status, 0) << r0.output;
   auto r1 = run_command("BIODEM_TEST_GPU_FAULT_AT_STEP=3000 " + biodem_exe() + " run " + kNeedles + " --out " + d +
                         " --device " + gpu_device());
-  // One line naming the fault, and no fallback line (a queued check or graph given up as if the
-  // run could go on). On a GPU the fault may surface first in a Thrust call: the engine names
-  // its CUDA error as its own (status 2, not "internal error"; gpu_check 3h forces that case).
-  EXPECT_EQ(r1.status, 2) << r1.output;
-  EXPECT_NE(r1.output.find("biodem: error: GPU engine: "), std::string::npos) << r1.output;
-  if (gpu_device() == "gpu-emulated") {
-    EXPECT_NE(r1.output.find("biodem: error: GPU engine: a kernel faulted on the device"), std::string::npos)
-        << r1.output;
-  }
-  EXPECT_EQ(r1.output.find("for the rest of the run"), std::string::npos) << r1.output;
-  EXPECT_EQ(r1.output.find("terminate called"), std::string::npos) << r1.output;
+  expect_one_fault_line(r1);
   EXPECT_EQ(r1.output.find("done: "), std::string::npos) << "the run must stop: " << r1.output;
   ASSERT_TRUE(fs::exists(d + "/checkpoint.bin"));
   auto r2 = run_command(biodem_exe() + " run " + kNeedles + " --out " + d + " --resume --device " + gpu_device());
@@ -275,14 +283,7 @@ TEST(GpuRuns, DeviceFaultInASettleCriterionPhaseEndsTheRun) {
   const std::string d = fresh_dir("gpu_fault_settle");
   auto r = run_command("BIODEM_TEST_GPU_FAULT_AT_STEP=3000 " + biodem_exe() + " run " + source_dir() +
                        "/tests/cases/biomass_9_6_quick.toml --out " + d + " --device " + gpu_device());
-  EXPECT_EQ(r.status, 2) << r.output;
-  EXPECT_NE(r.output.find("biodem: error: GPU engine: "), std::string::npos) << r.output;
-  if (gpu_device() == "gpu-emulated") {
-    EXPECT_NE(r.output.find("biodem: error: GPU engine: a kernel faulted on the device"), std::string::npos)
-        << r.output;
-  }
-  EXPECT_EQ(r.output.find("for the rest of the run"), std::string::npos) << r.output;
-  EXPECT_EQ(r.output.find("terminate called"), std::string::npos) << r.output;
+  expect_one_fault_line(r);
   EXPECT_EQ(slurp(d + "/run.log").find("phase 'settle' ends"), std::string::npos) << "the run must stop in the settle phase";
 }
 
