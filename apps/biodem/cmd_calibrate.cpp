@@ -20,7 +20,7 @@ Action register_calibrate(CLI::App& app) {
   sub->add_option("CALIB", calib_path, "calibration file (TOML)")->required();
   sub->add_option("--out", out_dir, "output directory")->required();
   sub->add_option("--jobs", jobs, "evaluations run at once on this machine (child processes)")
-      ->check(CLI::PositiveNumber);
+      ->check(whole_number_at_least(1));
   sub->add_flag("--resume", resume, "re-use the finished evaluations of an interrupted campaign in --out");
   return [] {
 #ifdef BIODEM_HAVE_PAGMO

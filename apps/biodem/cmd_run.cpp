@@ -17,7 +17,7 @@ Action register_run(CLI::App& app) {
   static std::string device;
   sub->add_option("CASE", case_path, "case file (TOML)")->required();
   sub->add_option("--out", out_dir, "output directory (created if needed)")->required();
-  sub->add_option("--threads", threads, "threads of the engine (default: all cores)")->check(CLI::NonNegativeNumber);
+  sub->add_option("--threads", threads, "threads of the engine (default: all cores)")->check(whole_number_at_least(0));
   sub->add_flag("--resume", resume, "continue from the last checkpoint in --out");
   sub->add_flag("--profile", profile, "time the phases of the CPU engine's step and write them to run.log");
   sub->add_option("--device", device,

@@ -1,11 +1,32 @@
 // Each sub-command registers itself on the CLI11 app and returns the callback to run when chosen.
 #pragma once
 #include <CLI/CLI.hpp>
+#include <exception>
 #include <functional>
+#include <string>
 
 namespace biodem::cli {
 
 using Action = std::function<int()>;
+
+/// A whole number of at least `lo` (for --threads, --jobs): the message says which of the two
+/// the value is not (CLI11's ranges print the largest double and call a word out of range).
+inline CLI::Validator whole_number_at_least(long lo) {
+  return CLI::Validator(
+      [lo](std::string& s) -> std::string {
+        std::size_t used = 0;
+        long v = 0;
+        try {
+          v = std::stol(s, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used == 0 || used != s.size()) return "must be a whole number, got '" + s + "'";
+        if (v < lo) return "must be at least " + std::to_string(lo) + ", got " + s;
+        return {};
+      },
+      "INT>=" + std::to_string(lo));
+}
 
 Action register_run(CLI::App& app);
 Action register_check(CLI::App& app);

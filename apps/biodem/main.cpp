@@ -35,7 +35,14 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line naming the option (SPEC 11), status 2 as every user-facing error.
+    std::string what = e.what();
+    for (char& c : what)
+      if (c == '\n') c = ' ';
+    while (!what.empty() && what.back() == ' ') what.pop_back();
+    std::cerr << "biodem: error: " << what << " (see biodem --help)\n";
+    return 2;
   }
   try {
     for (auto& [sub, action] : actions)

@@ -149,11 +149,13 @@ HeapResult measure_heap(const std::vector<Vec3>& c, const std::vector<double>& r
   const double m = std::accumulate(fitted.begin(), fitted.end(), 0.0) / static_cast<double>(fitted.size());
   double ss = 0.0;
   for (double a : fitted) ss += (a - m) * (a - m);
-  out.angle_deg = m;
   out.angle_spread_deg = std::sqrt(ss / static_cast<double>(fitted.size() - 1));
   out.angle_min_deg = *std::min_element(fitted.begin(), fitted.end());
   out.angle_max_deg = *std::max_element(fitted.begin(), fitted.end());
-  out.valid = true;
+  // A heap falls away from its axis: a mean slope that does not (a bed with a flat top whose
+  // fitted band holds only noise, or a crater) is no heap. Its sector fits stay as diagnostics.
+  out.valid = m > 0.0;
+  out.angle_deg = out.valid ? m : 0.0;
   return out;
 }
 

@@ -16,7 +16,8 @@
 //     fitted (least squares, surface height against bin centre) to the bins whose surface lies
 //     between fit_from and fit_to of H (defaults 0.2 and 0.8: the rounded cap and toe are left
 //     out); the sector's angle is atan(-slope). The response is the mean over the sectors with at
-//     least three such bins, and their sample standard deviation is the spread.
+//     least three such bins, and their sample standard deviation is the spread. A mean that is
+//     not positive (the surface does not fall away from the axis) is no heap.
 #pragma once
 #include <cstddef>
 #include <cstdint>
@@ -35,10 +36,13 @@ struct HeapOptions {
 };
 
 struct HeapResult {
-  bool valid = false;             // false: no heap two particle sizes high, or fewer than half
-                                  // the sectors (and fewer than 2) could be fitted
+  bool valid = false;             // false: no heap two particle sizes high, fewer than half
+                                  // the sectors (and fewer than 2) could be fitted, or the mean
+                                  // of the sector angles is not positive (no slope falling
+                                  // away from the axis)
   double angle_deg = 0.0;         // mean over the fitted sectors; 0 when not valid
-  double angle_spread_deg = 0.0;  // sample standard deviation over the fitted sectors
+  double angle_spread_deg = 0.0;  // sample standard deviation over the fitted sectors (also
+                                  // when not valid, with min and max, for diagnosis)
   double angle_min_deg = 0.0, angle_max_deg = 0.0;
   std::vector<double> sector_angle_deg;  // one per sector; NaN where it could not be fitted
   std::size_t sectors_fitted = 0;

@@ -2,6 +2,8 @@
 // synthetic data, and their messages on bad input (exit status 2, one line naming the problem).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <fstream>
 #include <string>
@@ -129,6 +131,36 @@ TEST(AnalysisCli, AnalyzeBadInputs) {
   r = test::run_biodem("analyze " + test::quote(dir / "word.csv"));
   EXPECT_EQ(r.status, 2);
   EXPECT_TRUE(contains(r.output, "line 3, column 'alpha_deg': 'abc' is not a number")) << r.output;
+}
+
+// Command-line errors (SPEC 11): one line naming the option, status 2, before anything runs;
+// --help and --version status 0. (CLI11 alone printed two lines with statuses 104-109, and for
+// --threads -1 a range up to 1.8e308.)
+TEST(AnalysisCli, CommandLineErrorsAreOneLineNamingTheOption) {
+  struct Case {
+    std::string args, names;
+  };
+  const std::vector<Case> cases = {
+      {"run case.toml --out o --threads -1", "--threads: must be at least 0, got -1"},
+      {"run case.toml --out o --threads abc", "--threads: must be a whole number, got 'abc'"},
+      {"run case.toml --out o --threads 1.5", "--threads: must be a whole number"},
+      {"calibrate c.toml --out d --jobs 0", "--jobs: must be at least 1, got 0"},
+      {"run case.toml", "--out is required"},
+      {"run case.toml --out o --device tpu", "--device"},
+      {"run case.toml --out o --bogus", "--bogus"},
+      {"analyze x.csv --min-drop-deg abc", "--min-drop-deg"},
+      {"", "subcommand is required"},
+  };
+  for (const auto& c : cases) {
+    const auto r = test::run_biodem(c.args);
+    EXPECT_EQ(r.status, 2) << c.args << ": " << r.output;
+    EXPECT_TRUE(contains(r.output, "biodem: error: ")) << c.args << ": " << r.output;
+    EXPECT_TRUE(contains(r.output, c.names)) << c.args << ": " << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << c.args << ": " << r.output;
+  }
+  EXPECT_EQ(test::run_biodem("--help").status, 0);
+  EXPECT_EQ(test::run_biodem("run --help").status, 0);
+  EXPECT_EQ(test::run_biodem("--version").status, 0);
 }
 
 // Four samples: glass-like (small frequent drops), two biomass-like with equal drops (a tie),

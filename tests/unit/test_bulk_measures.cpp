@@ -138,3 +138,24 @@ TEST(HeapAngle, MonolayerIsNoHeap) {
   EXPECT_FALSE(h.valid);
   EXPECT_EQ(h.angle_deg, 0.0);
 }
+
+// A crater (the surface rises away from the axis, 20 degrees) is no heap: the sector fits see
+// -20 degrees, which must not be taken for an angle of repose (a sign error would report +20).
+TEST(HeapAngle, CraterIsNoHeap) {
+  Scene s;
+  const double r = 0.5e-3, R = 0.02, t = std::tan(20.0 * kDeg), h0 = 4e-3;
+  for (double x = -R; x <= R; x += 2.0 * r)
+    for (double z = -R; z <= R; z += 2.0 * r) {
+      const double rho = std::hypot(x, z);
+      if (rho > R) continue;
+      const double surface = h0 + t * rho;
+      for (double y = r; y + r <= surface; y += 2.0 * r) s.add({x, y, z}, r);
+      s.add({x, surface - r, z}, r);
+    }
+  const auto h = measure(s);
+  EXPECT_FALSE(h.valid);
+  EXPECT_EQ(h.angle_deg, 0.0);
+  EXPECT_NEAR(h.angle_min_deg, -20.0, 1.5);  // the sector fits are kept for diagnosis
+  EXPECT_NEAR(h.angle_max_deg, -20.0, 1.5);
+  EXPECT_GE(h.sectors_fitted, 4u);
+}
