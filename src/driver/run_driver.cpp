@@ -62,8 +62,18 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
   device_ = opt.device.value_or(cfg_.run.device);
   // Created before any output is touched: a GPU run without a GPU (or without the CUDA build)
   // stops here with one line.
-  if (device_ == config::Device::Gpu) dev_ = gpu::make_device_engine(gpu::Backend::Cuda, sim_);
-  if (device_ == config::Device::GpuEmulated) dev_ = gpu::make_device_engine(gpu::Backend::HostThreads, sim_);
+  // A device asked for by the case, not the command line, is named as the case's key.
+  auto make_engine = [&](gpu::Backend backend, const char* name) {
+    try {
+      return gpu::make_device_engine(backend, sim_);
+    } catch (const Error& e) {
+      const std::string what = e.what(), flag = "--device gpu: ";
+      if (opt.device || what.rfind(flag, 0) != 0) throw;
+      throw Error(cfg_.source_path + ": [run] device = \"" + name + "\": " + what.substr(flag.size()));
+    }
+  };
+  if (device_ == config::Device::Gpu) dev_ = make_engine(gpu::Backend::Cuda, "gpu");
+  if (device_ == config::Device::GpuEmulated) dev_ = make_engine(gpu::Backend::HostThreads, "gpu-emulated");
   if (dev_ && cfg_.run.remove_lost_particles)
     throw Error(cfg_.source_path + ": [run] lost_particles = \"remove\" is not supported by the GPU engine (use --device cpu, or \"stop\")");
   if (dev_ && cfg_.bulk_test)

@@ -195,6 +195,22 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
   EXPECT_FALSE(fs::exists(d + "/series.csv")) << "nothing may be computed or written";
   auto rb = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --device tpu");
   EXPECT_NE(rb.status, 0);
+  // Asked for by the case ([run] device), the line names the case's key, not an option that was
+  // not given.
+  const std::string with_key = d + "/gpu_case.toml";
+  fs::create_directories(d);
+  {
+    std::string text = slurp(kCase);
+    const std::size_t run = text.find("[run]\n");
+    ASSERT_NE(run, std::string::npos);
+    text.insert(run + 6, "device = \"gpu\"\n");
+    std::ofstream(with_key) << text;
+  }
+  auto rk = run_command(biodem_exe() + " run " + with_key + " --out " + d + "/k");
+  EXPECT_EQ(rk.status, 2) << rk.output;
+  EXPECT_NE(rk.output.find("gpu_case.toml: [run] device = \"gpu\": "), std::string::npos) << rk.output;
+  EXPECT_EQ(rk.output.find("--device"), std::string::npos) << rk.output;
+  EXPECT_FALSE(fs::exists(d + "/k/series.csv"));
 }
 
 // The GPU engine's switches (docs/gpu.md, "Switches"): a value outside the documented ones stops
