@@ -28,7 +28,13 @@ Action register_calibrate(CLI::App& app) {
     o.out_dir = out_dir;
     o.jobs = jobs;
     o.resume = resume;
-    const calib::CampaignSummary s = calib::calibrate(calib_path, o);
+    calib::CampaignSummary s;
+    try {
+      s = calib::calibrate(calib_path, o);
+    } catch (const calib::CampaignStopped& e) {
+      std::cerr << e.what() << "\n";
+      return 128 + e.signal;  // 130 for SIGINT, 143 for SIGTERM, as `run`
+    }
     if (!s.mpi_worker)
       std::cout << "calibrate: done; " << s.pareto << " Pareto points in " << out_dir << "/pareto.csv\n";
     return 0;

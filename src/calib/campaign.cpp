@@ -1,6 +1,7 @@
 #include "calib/campaign.hpp"
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -30,6 +31,7 @@ class Campaign {
 
   CampaignSummary run() {
     const std::string& out = o_.out_dir;
+    const CampaignSignals signals;  // SIGINT / SIGTERM stop the campaign, not just its test runs
     const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
     const auto names = response_names(c_);
     std::map<std::vector<double>, Evaluation> cache;
@@ -111,6 +113,24 @@ class Campaign {
         jobs.push_back(std::move(j));
       }
     const std::vector<TestRun> runs = mpi_ && mpi_->size() > 1 ? mpi_->run(jobs) : run_on_threads(jobs, o_.jobs, o_.runner);
+    // Stopped by a signal (the campaign's, or a test run's own): nothing of this batch is scored.
+    int sig = CampaignSignals::received();
+    std::size_t stopped = 0, unstarted = 0;
+    for (const TestRun& r : runs)
+      if (const int s = stopping_signal(r.rc)) {
+        ++(r.started ? stopped : unstarted);
+        if (!sig) sig = s;
+      }
+    if (sig) {
+      const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+      const std::string what = "calibrate: stopped by " + name + " in generation " +
+                               std::to_string(batch.front().generation) + " (" + std::to_string(stopped) +
+                               " test runs stopped with a checkpoint, " + std::to_string(unstarted) +
+                               " not started; this generation is not scored); continue with --resume";
+      log_ << what << "\n";
+      log_.flush();
+      throw CampaignStopped(sig, what);
+    }
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());

@@ -13,6 +13,7 @@
 
 #include "calib/calib_file.hpp"
 #include "calib/test_runs.hpp"
+#include "core/error.hpp"
 
 namespace biodem::calib {
 
@@ -31,6 +32,16 @@ struct CampaignOptions {
 struct CampaignSummary {
   std::size_t evaluations = 0, pareto = 0;
   bool mpi_worker = false;  // an MPI rank > 0: it ran test cases for rank 0's campaign
+};
+
+/// Thrown when SIGINT or SIGTERM stopped the campaign (test_runs.hpp, CampaignSignals): the
+/// batch in progress is not scored (its test runs wrote their checkpoints; none is taken for
+/// failed), campaign.log says so, and `calibrate --resume` continues where it stopped, with the
+/// result of an uninterrupted campaign. `biodem calibrate` prints what() and exits 128 + signal.
+class CampaignStopped : public Error {
+ public:
+  CampaignStopped(int signal_number, const std::string& what) : Error(what), signal(signal_number) {}
+  int signal;
 };
 
 /// Runs the campaign of `c` into options.out_dir. With `mpi` (rank 0 of an MPI job) the test runs

@@ -1,12 +1,21 @@
 #include "calib/test_runs.hpp"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
+#include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+
+extern char** environ;
 
 namespace biodem::calib {
 namespace {
@@ -23,7 +32,83 @@ bool finished_run(const std::string& dir, const std::string& text) {
   return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
 }
 
+// A test run of the same case text that a signal stopped: it left a checkpoint and no "finished:".
+bool stopped_run(const std::string& dir, const std::string& text) {
+  std::ifstream c(dir + "/case.toml");
+  if (!c || !fs::exists(dir + "/out/checkpoint.bin")) return false;
+  const std::string old((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
+  return old == text;
+}
+
+// The campaign's stop signal and the test runs in progress, read by the signal handler (lock-free
+// atomics only). A run started after more runs than slots at once is not registered: it still
+// gets a terminal's SIGINT, and no run starts after the signal.
+std::atomic<int> g_signal{0};
+std::array<std::atomic<pid_t>, 1024> g_children{};
+
+extern "C" void on_campaign_signal(int sig) {
+  g_signal.store(sig);
+  for (auto& c : g_children)
+    if (const pid_t p = c.load(); p > 0) ::kill(p, sig);
+}
+
+struct sigaction g_old_int, g_old_term;
+
+// Runs `args` (args[0] the program) with stdout and stderr to `log`, as a registered child: a
+// campaign signal that arrives before the child is registered is passed on right after. Returns
+// its exit status, 128 + N when signal N ended it, -1 when it could not be started.
+int run_child(const std::vector<std::string>& args, const std::string& log) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  pid_t pid = 0;
+  const int err = ::posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (err != 0) return -1;
+  std::atomic<pid_t>* slot = nullptr;
+  for (auto& c : g_children) {
+    pid_t empty = 0;
+    if (c.compare_exchange_strong(empty, pid)) {
+      slot = &c;
+      break;
+    }
+  }
+  if (const int sig = g_signal.load()) ::kill(pid, sig);
+  int st = 0;
+  while (::waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+  }
+  if (slot) slot->store(0);
+  if (WIFEXITED(st)) return WEXITSTATUS(st);
+  if (WIFSIGNALED(st)) return 128 + WTERMSIG(st);
+  return -1;
+}
+
 }  // namespace
+
+int stopping_signal(int rc) {
+  return rc == 128 + SIGINT ? SIGINT : rc == 128 + SIGTERM ? SIGTERM : 0;
+}
+
+CampaignSignals::CampaignSignals() {
+  g_signal.store(0);
+  struct sigaction sa {};
+  sa.sa_handler = on_campaign_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  ::sigaction(SIGINT, &sa, &g_old_int);
+  ::sigaction(SIGTERM, &sa, &g_old_term);
+}
+
+CampaignSignals::~CampaignSignals() {
+  ::sigaction(SIGINT, &g_old_int, nullptr);
+  ::sigaction(SIGTERM, &g_old_term, nullptr);
+}
+
+int CampaignSignals::received() { return g_signal.load(); }
 
 std::string current_executable() {
   const fs::path self = fs::read_symlink("/proc/self/exe");
@@ -41,11 +126,26 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   TestRun r;
   fs::create_directories(dir);
   const auto t0 = std::chrono::steady_clock::now();
+  if (const int sig = g_signal.load()) {  // the campaign is stopping: start nothing
+    r.rc = 128 + sig;
+    r.started = false;
+    return r;
+  }
   if (!finished_run(dir, case_text)) {  // a run finished before a kill is re-used as it is (deterministic)
-    { std::ofstream(dir + "/case.toml") << case_text; }
-    const std::string cmd = "'" + biodem_exe + "' run '" + dir + "/case.toml' --out '" + dir +
-                            "/out' --threads 1 > '" + dir + "/stdout.txt' 2>&1";
-    r.rc = std::system(cmd.c_str());
+    std::vector<std::string> args = {biodem_exe, "run", dir + "/case.toml", "--out", dir + "/out", "--threads", "1"};
+    // A run of the same text stopped by a signal resumes from its checkpoint (bit for bit);
+    // should the checkpoint be refused (status 2), it runs again from the start.
+    bool resumed = false;
+    if (stopped_run(dir, case_text)) {
+      args.push_back("--resume");
+      r.rc = run_child(args, dir + "/stdout.txt");
+      args.pop_back();
+      resumed = r.rc != 2;
+    }
+    if (!resumed) {
+      { std::ofstream(dir + "/case.toml") << case_text; }
+      r.rc = run_child(args, dir + "/stdout.txt");
+    }
   }
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::ifstream in(dir + "/out/responses.csv");

@@ -19,8 +19,10 @@ struct TestJob {
 };
 
 struct TestRun {
-  int rc = 0;        // exit status of the run (0: it finished)
+  int rc = 0;        // exit status of the run (0: it finished; 128 + N: stopped by signal N, or
+                     // not started because the campaign was stopped by signal N)
   double wall_s = 0.0;
+  bool started = true;  // false: not started, the campaign was stopping (rc 128 + signal)
   std::map<std::string, double> responses;  // responses.csv
 };
 
@@ -29,8 +31,31 @@ struct TestRun {
 using TestRunner = std::function<TestRun(const TestJob&)>;
 
 /// Writes `dir`/case.toml and runs `biodem_exe run` on it into `dir`/out (stdout and stderr to
-/// `dir`/stdout.txt), or re-uses a finished earlier run of the same text; reads its responses.csv.
+/// `dir`/stdout.txt), or re-uses a finished earlier run of the same text, or resumes a stopped
+/// one of the same text from its checkpoint (`run --resume`; from the start if that is refused);
+/// reads its responses.csv.
 TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text);
+
+/// The signal that stopped a test run whose exit status is `rc` (SIGINT or SIGTERM: the run
+/// finished its step, wrote its checkpoint and exited 130 or 143; or it was not started), or 0.
+/// Such a run is neither finished nor failed: the campaign stops, and --resume resumes it.
+int stopping_signal(int rc);
+
+/// SIGINT and SIGTERM during a campaign (docs/calibration.md): while a CampaignSignals lives (the
+/// campaign's process; not an MPI worker rank), the signal is recorded, passed on to the test
+/// runs in progress (each finishes its step, writes its checkpoint and exits 128 + signal), and
+/// no test run starts after it (run_test_process returns 128 + signal at once). Before, the
+/// campaign ran its test runs through std::system, which ignores SIGINT in the caller: a Ctrl-C
+/// stopped the runs, and the campaign scored them as failed and went on.
+class CampaignSignals {
+ public:
+  CampaignSignals();
+  ~CampaignSignals();
+  CampaignSignals(const CampaignSignals&) = delete;
+  CampaignSignals& operator=(const CampaignSignals&) = delete;
+  /// The signal received since construction, or 0.
+  static int received();
+};
 
 /// The program that runs the test cases: this process's executable (/proc/self/exe), or the light
 /// `biodem` beside it when this is `biodem-full` (which runs `calibrate` for it).

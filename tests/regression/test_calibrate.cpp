@@ -86,6 +86,38 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
 #endif
 }
 
+// Ctrl-C (SIGINT to the process group) and SIGTERM to the campaign alone, in the middle of its
+// second batch: the campaign stops with 130 / 143 and a line saying so, scores nothing of that
+// batch (before: the test runs stopped by the signal were scored as failed, o1 = o2 = 1e9, and
+// the campaign went on to exit 0 with another Pareto set), and --resume ends exactly like an
+// uninterrupted campaign.
+TEST(Calibrate, SignalsStopTheCampaignAndResumeGivesTheSameResult) {
+  const std::string a = campaign("signal_ref", 2);
+  for (const std::string sig : {"INT", "TERM"}) {
+    const std::string c = fresh_dir("calib_sig" + sig);
+    const std::string target = sig == "INT" ? "-$pid" : "$pid";  // the group, as a terminal; or the campaign
+    const std::string script = "setsid " + biodem_exe() + " calibrate " + kCalib + " --out " + c +
+                               " --jobs 2 >" + c + ".stdout 2>&1 & pid=$!; "
+                               "for i in $(seq 1 2400); do n=$(cat " + c + "/runs/g1/*/*/out/run.log 2>/dev/null | "
+                               "grep -c ^finished:); [ \"$n\" -ge 1 ] && break; sleep 0.02; done; kill -" + sig + " " +
+                               target + " && echo sent; wait $pid; echo status=$?";
+    const auto k = run_command("bash -c '" + script + "'");
+    if (k.output.find("sent") == std::string::npos) GTEST_SKIP() << "the campaign finished before the signal";
+    EXPECT_FALSE(fs::exists(c + "/pareto.csv")) << "the campaign went on after the signal";
+    EXPECT_NE(k.output.find(sig == "INT" ? "status=130" : "status=143"), std::string::npos) << k.output;
+    const std::string said = slurp(c + ".stdout");
+    EXPECT_NE(said.find("calibrate: stopped by SIG" + sig + " in generation 1"), std::string::npos) << said;
+    EXPECT_NE(said.find("continue with --resume"), std::string::npos) << said;
+    EXPECT_NE(slurp(c + "/campaign.log").find("stopped by SIG" + sig), std::string::npos);
+    EXPECT_EQ(lines(c + "/cache.csv") - 1, 8u) << "only the first batch is scored";
+    EXPECT_EQ(slurp(c + "/campaign.log").find("1e9"), std::string::npos) << "no test run scored as failed";
+    const auto r = run_command(biodem_exe() + " calibrate " + kCalib + " --out " + c + " --jobs 2 --resume");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(c + "/evaluations.csv")) << sig;
+    EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(c + "/pareto.csv")) << sig;
+  }
+}
+
 // Bad CALIB files: one line naming the key, non-zero exit, before any run (no runs/ folder).
 TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
   std::ifstream in(kCalib);
