@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <sstream>
 
 #include "calib/campaign_plots.hpp"
 #include "calib/evaluations_csv.hpp"
@@ -92,6 +93,13 @@ class Campaign {
     write_campaign_plots(c_, res, out);
     log_ << "finished: " << res.evaluations.size() << " evaluations, " << res.pareto.size()
          << " in the Pareto set (pareto.csv)\n";
+    if (warned_runs_ || no_heap_runs_) {
+      std::ostringstream note;
+      note << "calibrate: " << warned_runs_ << " warnings of test runs and " << no_heap_runs_
+           << " heaps not found in the evaluations run now; see campaign.log";
+      log_ << note.str() << "\n";
+      std::cerr << note.str() << "\n";
+    }
     return {res.evaluations.size(), res.pareto.size()};
   }
 
@@ -140,6 +148,18 @@ class Campaign {
       for (const auto& [k, v] : r.responses) responses[j.evaluation][k] = v;
       wall[j.evaluation] += r.wall_s;
       if (r.rc != 0) errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (see " + j.dir + "/stdout.txt)";
+      // What the responses may not mean: the run's warnings, and a heap that was not found (its
+      // angle is scored as 0).
+      const std::string who = "evaluation g" + std::to_string(batch[j.evaluation].generation) + " e" +
+                              std::to_string(batch[j.evaluation].index) + " " + c_.tests[j.test].name + ": ";
+      for (const auto& w : r.warnings) {
+        log_ << who << w << " (" << j.dir << "/out/run.log)\n";
+        ++warned_runs_;
+      }
+      if (const auto h = r.responses.find("heap_found"); h != r.responses.end() && h->second == 0.0) {
+        log_ << who << "no heap found (heap_found = 0): angle_of_repose_deg = 0 is scored\n";
+        ++no_heap_runs_;
+      }
     }
     for (std::size_t e = 0; e < batch.size(); ++e) {
       auto& ev = batch[e];
@@ -162,6 +182,7 @@ class Campaign {
   CampaignOptions o_;
   const MpiJob* mpi_;
   std::ofstream log_, evals_, cache_out_;
+  std::size_t warned_runs_ = 0, no_heap_runs_ = 0;  // warnings of the test runs; heaps not found
   std::chrono::steady_clock::time_point t0_;
 };
 

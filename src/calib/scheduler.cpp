@@ -29,7 +29,8 @@ std::vector<TestRun> run_on_threads(const std::vector<TestJob>& jobs, int thread
 #ifdef BIODEM_HAVE_MPI
 namespace {
 
-// Tags; job message: "<job id>\n<dir>\n<case text>"; result: "<job id> <rc> <wall_s>\n<name>,<value>\n...".
+// Tags; job message: "<job id>\n<dir>\n<case text>"; result: "<job id> <rc> <wall_s>\n<name>,<value>\n...",
+// then one "!<warning>\n" per warning of the run's log.
 constexpr int kTagJob = 1, kTagResult = 2, kTagStop = 3;
 
 std::string g17(double v) {
@@ -82,6 +83,10 @@ std::vector<TestRun> MpiJob::run(const std::vector<TestJob>& jobs) const {
     std::string line;
     std::getline(in, line);
     while (std::getline(in, line)) {
+      if (!line.empty() && line[0] == '!') {  // a warning of the run's log
+        r.warnings.push_back(line.substr(1));
+        continue;
+      }
       const auto c = line.find(',');
       if (c != std::string::npos) r.responses[line.substr(0, c)] = std::stod(line.substr(c + 1));
     }
@@ -107,6 +112,7 @@ void MpiJob::serve(const std::string& biodem_exe) const {
     const TestRun r = run_test_process(biodem_exe, dir, text);
     std::string out = id + " " + std::to_string(r.rc) + " " + g17(r.wall_s) + "\n";
     for (const auto& [k, v] : r.responses) out += k + "," + g17(v) + "\n";
+    for (const auto& w : r.warnings) out += "!" + w + "\n";
     send_text(out, 0, kTagResult);
   }
 }

@@ -156,6 +156,11 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
     if (c1 == std::string::npos || c2 == std::string::npos) continue;
     r.responses[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
   }
+  // The run's warnings (a fill too low or too high for the heap procedure, a scene not at rest
+  // when measured): the campaign reports them, as its responses may not mean what they say.
+  std::ifstream log(dir + "/out/run.log");
+  while (std::getline(log, line))
+    if (const auto w = line.find("WARNING: "); w != std::string::npos) r.warnings.push_back(line.substr(w));
   return r;
 }
 

@@ -24,6 +24,7 @@ struct TestRun {
   double wall_s = 0.0;
   bool started = true;  // false: not started, the campaign was stopping (rc 128 + signal)
   std::map<std::string, double> responses;  // responses.csv
+  std::vector<std::string> warnings;         // run.log's warnings ("WARNING: ..."), for campaign.log
 };
 
 /// Runs one job. The campaign's default runs `biodem` as a child process (run_test_process);

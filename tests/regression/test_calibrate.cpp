@@ -52,6 +52,11 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
   EXPECT_TRUE(fs::exists(a + "/pareto.png"));
   EXPECT_TRUE(fs::exists(a + "/pareto.svg"));
   EXPECT_TRUE(fs::exists(a + "/retainment_ratio_vs_ced_j_m3.png"));
+  // The micro heap is filled well below the procedure's two diameters (to be quick): each test
+  // run's warning reaches campaign.log, with the heaps that were not found.
+  const std::string alog = slurp(a + "/campaign.log");
+  EXPECT_NE(alog.find("heap: WARNING: the fill stands "), std::string::npos) << alog;
+  EXPECT_NE(alog.find(" warnings of test runs and "), std::string::npos) << alog;
 
   // Kill a campaign (and its child runs) in the middle of its second batch, once two test runs
   // of that batch have finished, then resume it: the first batch comes from cache.csv, the
@@ -81,6 +86,8 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
   const auto rm = run_command("mpirun --oversubscribe --allow-run-as-root -np 3 " + biodem_exe() + " calibrate " +
                               kCalib + " --out " + m);
   ASSERT_EQ(rm.status, 0) << rm.output;
+  EXPECT_NE(slurp(m + "/campaign.log").find("heap: WARNING: the fill stands "), std::string::npos)
+      << "the ranks pass the runs' warnings on";
   EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(m + "/evaluations.csv"));
   EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(m + "/pareto.csv"));
 #endif
