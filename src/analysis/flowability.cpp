@@ -100,8 +100,12 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
     res.values[1].push_back(e.drop_deg);
     if (e.f_percent) res.values[2].push_back(*e.f_percent);
   }
-  for (double r2 : sub(s.surface_r2))
-    if (std::isfinite(r2)) res.values[3].push_back(r2);
+  // r^2 of the drum turning: the last sample of a rest phase before it (first > 0, the start of
+  // the alpha analysis) shows the bed at rest, whose nearly horizontal surface gives a low r^2
+  // that is not a property of the flow (docs/analysis.md section 4).
+  const std::span<const double> r2s = sub(s.surface_r2);
+  for (std::size_t k = 0; k < r2s.size(); ++k)
+    if (std::isfinite(r2s[k]) && !(first > 0 && start + k == first)) res.values[3].push_back(r2s[k]);
   for (std::size_t k = 0; k < res.values.size(); ++k)
     res.distributions[k] = describe(res.values[k]);
 

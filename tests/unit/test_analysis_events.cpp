@@ -2,6 +2,8 @@
 // planted event is found, none is invented, UAS, drop and f are exact to the sampling precision.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -198,6 +200,28 @@ TEST(AnalysisFlowability, SpeedSettlePhaseAndSkip) {
   res = analyze_flowability(s, o);
   EXPECT_FALSE(res.rpm_from_series);
   EXPECT_NEAR(*res.detection.events[0].f_percent, 1.0 * 80 * kDt / 60.0 * 100.0, 1e-9);
+
+  // r^2 while the drum turns: 0.05 at rest (settling), 0.9 turning. The last rest sample, where
+  // the alpha analysis starts, is not part of the r^2 distribution (before: 1 of 1,101 values
+  // was 0.05).
+  o.rpm.reset();
+  s.surface_r2.assign(s.size(), 0.9);
+  for (std::size_t i = 0; i <= 100; ++i) s.surface_r2[i] = 0.05;
+  res = analyze_flowability(s, o);
+  EXPECT_EQ(res.distributions[3].count, s.size() - 101);
+  EXPECT_DOUBLE_EQ(res.distributions[3].p10, 0.9);
+  EXPECT_DOUBLE_EQ(*std::min_element(res.values[3].begin(), res.values[3].end()), 0.9);
+  // A series without a rest phase (a video's) keeps its first sample.
+  Series v;
+  for (std::size_t i = 100; i < s.size(); ++i) {
+    v.time_s.push_back(s.time_s[i]);
+    v.revolution.push_back(s.revolution[i]);
+    v.alpha_deg.push_back(s.alpha_deg[i]);
+    v.surface_r2.push_back(i == 100 ? 0.5 : 0.9);
+  }
+  res = analyze_flowability(v, o);
+  EXPECT_EQ(res.first_sample, 0u);
+  EXPECT_EQ(res.distributions[3].count, v.size());
 }
 
 TEST(AnalysisFlowability, BadInputsGiveClearErrors) {
