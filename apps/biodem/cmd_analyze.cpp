@@ -8,12 +8,14 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 
 #include "analysis/distributions.hpp"
 #include "analysis/flowability.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/output_dir.hpp"
 #include "output/plot_writer.hpp"
 #include "output/series_csv.hpp"
 
@@ -39,8 +41,10 @@ struct AnalyzeOptions {
   CLI::Option* rpm_opt = nullptr;
 };
 
+// Written whole through a temporary file and a rename (output::write_file_atomic): a reader, or
+// an analysis killed mid-write, sees the old file or the complete new one.
 void write_events_csv(const fs::path& path, const FlowabilityResult& r) {
-  std::ofstream out(path, std::ios::trunc);
+  std::ostringstream out;
   out << "start_time_s,start_revolution,uas_deg,end_time_s,drop_deg,interval_s,f_percent\n";
   for (const auto& e : r.detection.events) {
     out << output::csv_number(e.start_time_s, 12) << ',' << output::csv_number(e.start_revolution, 12)
@@ -49,11 +53,11 @@ void write_events_csv(const fs::path& path, const FlowabilityResult& r) {
         << (e.interval_s ? output::csv_number(*e.interval_s, 12) : "") << ','
         << (e.f_percent ? output::csv_number(*e.f_percent) : "") << '\n';
   }
-  if (!out) throw Error("cannot write '" + path.string() + "'");
+  output::write_file_atomic(path.string(), out.str());
 }
 
 void write_descriptors_csv(const fs::path& path, const FlowabilityResult& r) {
-  std::ofstream out(path, std::ios::trunc);
+  std::ostringstream out;
   out << "descriptor,count,mean,p10,p50,p90,span\n";
   const auto table = analysis::descriptor_table();
   for (std::size_t k = 0; k < table.size(); ++k) {
@@ -62,7 +66,7 @@ void write_descriptors_csv(const fs::path& path, const FlowabilityResult& r) {
         << output::csv_number(d.p10) << ',' << output::csv_number(d.p50) << ','
         << output::csv_number(d.p90) << ',' << output::csv_number(d.span) << '\n';
   }
-  if (!out) throw Error("cannot write '" + path.string() + "'");
+  output::write_file_atomic(path.string(), out.str());
 }
 
 std::string fmt(double v, const char* f = "%.4g") {

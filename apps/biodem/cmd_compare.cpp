@@ -11,6 +11,7 @@
 #include <iostream>
 #include <memory>
 #include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "analysis/flowability.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/output_dir.hpp"
 #include "output/plot_writer.hpp"
 #include "output/series_csv.hpp"
 
@@ -193,7 +195,7 @@ int run_compare(const CompareOptions& o) {
 
   const fs::path csv = out_dir / "compare.csv";
   {
-    std::ofstream out(csv, std::ios::trunc);
+    std::ostringstream out;
     out << "sample,descriptor,count,mean,p10,median,p90,span,rank,rank_roman\n";
     for (std::size_t k = 0; k < table.size(); ++k)
       for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -205,7 +207,7 @@ int run_compare(const CompareOptions& o) {
         if (ranks[k][i] > 0) out << ranks[k][i];
         out << ',' << (ranks[k][i] > 0 ? analysis::roman(ranks[k][i]) : "") << '\n';
       }
-    if (!out) throw Error("cannot write '" + csv.string() + "'");
+    output::write_file_atomic(csv.string(), out.str());
   }
 
   std::cout << "event threshold: " << rule << "\n";

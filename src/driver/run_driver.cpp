@@ -19,6 +19,7 @@
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "driver/runner.hpp"
+#include "output/analysis_files.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
 
@@ -191,6 +192,11 @@ RunSummary Runner::run() {
     fs::remove(opt_.out_dir + "/responses.csv");
     fs::remove_all(opt_.out_dir + "/snapshots");
     fs::remove_all(opt_.out_dir + "/frames");
+    // ... and so would an earlier `biodem analyze` of the folder: its tables and plots describe
+    // the old series.csv.
+    for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
+    for (const char* stem : output::kAnalysisPlots)
+      for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
   }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");

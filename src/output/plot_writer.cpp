@@ -1,5 +1,7 @@
 #include "output/plot_writer.hpp"
 
+#include "output/output_dir.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -426,11 +428,7 @@ void write_plot(const Plot& plot, const std::filesystem::path& stem) {
   svg_path += ".svg";
   auto png_path = stem;
   png_path += ".png";
-  {
-    std::ofstream out(svg_path, std::ios::trunc);
-    out << plot_to_svg(plot);
-    if (!out) throw Error("cannot write plot '" + svg_path.string() + "'");
-  }
+  write_file_atomic(svg_path.string(), plot_to_svg(plot));
   write_png(png_path.string(), plot_to_image(plot));
 }
 

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
+#include <vector>
 
 #include "test_util.hpp"
 
@@ -57,4 +59,26 @@ TEST(CheckpointRestart, CorruptOrMissingCheckpointIsAClearError) {
   EXPECT_NE(r2.status, 0);
   EXPECT_NE(r2.output.find("checksum"), std::string::npos) << r2.output;
   EXPECT_EQ(r2.output.find("internal error"), std::string::npos) << r2.output;
+}
+
+// A fresh run into a folder that an earlier run and `biodem analyze` filled leaves none of the
+// analysis (events.csv, descriptors.csv, threshold_sweep.csv, the plots): they described the
+// series the run replaces (before, they stayed beside the new series.csv and looked current).
+TEST(CheckpointRestart, FreshRunRemovesTheAnalysisOfTheRunItReplaces) {
+  const std::string d = fresh_dir("fresh_over_analysed");
+  ASSERT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1").status, 0);
+  const auto a = run_command(biodem_exe() + " analyze " + d + " --sweep --min-drop-deg 0.01");
+  ASSERT_EQ(a.status, 0) << a.output;
+  auto analysis_files = [&] {
+    std::vector<std::string> found;
+    for (const auto& e : fs::directory_iterator(d)) {
+      const std::string n = e.path().filename().string(), ext = e.path().extension().string();
+      if (ext == ".png" || ext == ".svg" || n == "events.csv" || n == "descriptors.csv" || n == "threshold_sweep.csv")
+        found.push_back(n);
+    }
+    return found;
+  };
+  ASSERT_GE(analysis_files().size(), 3u);  // the tables and the sweep (and the plots, with OpenCV)
+  ASSERT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1").status, 0);
+  EXPECT_EQ(analysis_files(), std::vector<std::string>{});
 }
