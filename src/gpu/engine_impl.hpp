@@ -344,6 +344,14 @@ class Engine final : public DeviceEngine {
   /// Stops the run with one line if the motion shows a pair missing from a row, a non-finite
   /// position or a sphere past half the skin; `lag`: steps the motion may be old.
   void check_motion(const Motion& m, std::uint32_t lag);
+  /// A lost body (SPEC 10; [run] lost_particles = "stop", the GPU engine's only choice): the CPU
+  /// engine tests every body at each list build. Here the list check's box of the sphere centres
+  /// says when one has left: a sphere beyond the lost region by more than the largest bounding
+  /// radius belongs to a body whose centre is outside it (x and y past R + r_b of a drum, or a
+  /// face of the box), so the host state is downloaded and the host's test names the body.
+  /// (A body lost across a drum's diagonal is caught once it has moved one bounding radius
+  /// further along an axis, or at the next sample.) Nothing is read back otherwise.
+  void check_lost(const Box& box);
   // The list check's motion, queued by run_units before the last step of each run of steps
   // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
   // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
@@ -1250,6 +1258,25 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
                 " s: contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
 }
 
+inline void Engine::check_lost(const Box& box) {
+  const sim::LostRegion& r = host_.lost_region();
+  if (r.kind == sim::LostRegion::Kind::None) return;
+  double rb = 0.0;
+  for (const auto& t : host_.templates()) rb = std::max(rb, t.bounding_radius_m);
+  bool out = false;
+  if (r.kind == sim::LostRegion::Kind::Drum) {
+    const double lim = r.radius_m + 2.0 * rb;
+    out = box.lo.x < -lim || box.hi.x > lim || box.lo.y < -lim || box.hi.y > lim;
+    if (!r.periodic_z) out = out || box.lo.z < r.z0_m - 2.0 * rb || box.hi.z > r.z1_m + 2.0 * rb;
+  } else {
+    for (int k = 0; k < 3; ++k)
+      if (!r.box_periodic[k]) out = out || box.lo[k] < r.min_m[k] - rb || box.hi[k] > r.max_m[k] + rb;
+  }
+  if (!out) return;
+  download(false);
+  host_.check_lost_bodies();  // throws, naming the body
+}
+
 inline void Engine::check_list() {
   steps_until_check_ = check_every_;
   if (ns() == 0) return;
@@ -1278,6 +1305,7 @@ inline void Engine::check_list() {
   motion_queued_ = false;
   if (lagged) ++waitless_checks_;
   check_motion(m, lag);
+  check_lost(m.box);
   const double half_skin = 0.5 * skin_;
   // Until the next check, k steps later, a sphere moves at most k dt v; twice the largest speed
   // allows for acceleration in between. The motion read is `lag` steps old: those steps count
