@@ -22,10 +22,6 @@ double process_cpu_s() {
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-std::uint64_t steps_for(double seconds, double dt) {
-  return static_cast<std::uint64_t>(std::llround(seconds / dt));
-}
-
 std::vector<PhasePlan> plan_phases(const config::CaseConfig& c) {
   std::vector<PhasePlan> out;
   const double dt = c.run.dt_s;

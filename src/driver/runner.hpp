@@ -20,6 +20,7 @@
 #endif
 #include "case_file/case_parser.hpp"
 #include "checkpoint/checkpoint.hpp"
+#include "config/steps.hpp"
 #include "core/vec3.hpp"
 #include "driver/build_simulation.hpp"
 #include "driver/run_driver.hpp"
@@ -47,8 +48,7 @@ struct PhasePlan {
 
 /// CPU time of the whole process (all threads), user + system, in seconds.
 double process_cpu_s();
-/// round(seconds / dt).
-std::uint64_t steps_for(double seconds, double dt);
+using config::steps_for;  // round(seconds / dt), config/steps.hpp
 /// The phases of a case in steps (a settle criterion, a wall motion ...).
 std::vector<PhasePlan> plan_phases(const config::CaseConfig& c);
 

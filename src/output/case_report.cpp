@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "case_file/derived_quantities.hpp"
+#include "config/steps.hpp"
 #include "contact/time_step.hpp"
 #include "shapes/clump_template.hpp"
 
@@ -26,7 +27,9 @@ std::string num(double v, int digits = 4) {
   return buf;
 }
 
-std::string steps(double n) { return std::to_string(static_cast<unsigned long long>(std::ceil(n))); }
+// The run's own rounding (config/steps.hpp): before, ceil here and round in the run gave phase
+// lengths one step apart.
+std::string steps(double seconds, double dt) { return std::to_string(config::steps_for(seconds, dt)); }
 
 std::string vec(const config::Vec3d& v) {
   std::string s("[");  // appended piecewise: "[" + std::string trips a GCC 12 -Wrestrict false positive
@@ -53,14 +56,14 @@ std::string phase_line(const config::CaseConfig& c, const config::Phase& p) {
     os << "until the mean " << (p.translational_criterion ? "translational " : "") << "kinetic energy per body stays below " << num(*p.until_mean_kinetic_energy_j)
        << " J for " << num(p.settle_hold_s) << " s (after at least " << num(p.min_duration_s) << " s, at most "
        << num(p.max_duration_s.value_or(p.duration_s)) << " s = "
-       << steps(p.max_duration_s.value_or(p.duration_s) / dt) << " steps)";
+       << steps(p.max_duration_s.value_or(p.duration_s), dt) << " steps)";
   } else if (p.move_wall && p.move_by_fill_height) {
     const double v = std::sqrt(p.move_velocity_m_s[0] * p.move_velocity_m_s[0] +
                                p.move_velocity_m_s[1] * p.move_velocity_m_s[1] +
                                p.move_velocity_m_s[2] * p.move_velocity_m_s[2]);
     os << "wall #" << *p.move_wall + 1 << " lifted at " << num(v) << " m/s by the settled fill's height + "
        << num(p.move_margin_m) << " m (at most " << num(p.duration_s * v) << " m = " << num(p.duration_s)
-       << " s = " << steps(p.duration_s / dt) << " steps)";
+       << " s = " << steps(p.duration_s, dt) << " steps)";
   } else {
     switch (p.length) {
       case config::PhaseLength::Steps:
@@ -69,12 +72,12 @@ std::string phase_line(const config::CaseConfig& c, const config::Phase& p) {
           os << " = " << num(static_cast<double>(p.steps) * dt * std::abs(rpm) / 60.0) << " revolutions";
         break;
       case config::PhaseLength::Duration:
-        os << num(p.duration_s) << " s = " << steps(p.duration_s / dt) << " steps";
+        os << num(p.duration_s) << " s = " << steps(p.duration_s, dt) << " steps";
         if (p.rotate && rpm != 0.0) os << " = " << num(p.duration_s * std::abs(rpm) / 60.0) << " revolutions";
         break;
       case config::PhaseLength::Revolutions: {
         const double t = p.revolutions * 60.0 / std::abs(rpm);
-        os << num(p.revolutions) << " revolutions = " << num(t) << " s = " << steps(t / dt) << " steps";
+        os << num(p.revolutions) << " revolutions = " << num(t) << " s = " << steps(t, dt) << " steps";
         break;
       }
     }

@@ -82,3 +82,23 @@ TEST(CheckpointRestart, FreshRunRemovesTheAnalysisOfTheRunItReplaces) {
   ASSERT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1").status, 0);
   EXPECT_EQ(analysis_files(), std::vector<std::string>{});
 }
+
+// `biodem check` reports the phase lengths in the steps the run makes: round(t / dt) for both
+// (before, check rounded up: "0.025 revolutions = 0.05 s = 3334 steps" for a run of 3333).
+TEST(CheckpointRestart, CheckReportsThePhaseStepsTheRunMakes) {
+  const std::string d = fresh_dir("check_steps");
+  fs::create_directories(d);
+  std::string text = slurp(kCase);
+  const std::string from = "revolutions = 0.06";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "revolutions = 0.025");  // 0.05 s / 1.5e-5 s = 3333.3 steps
+  std::ofstream(d + "/case.toml") << text;
+  const auto c = run_command(biodem_exe() + " check " + d + "/case.toml");
+  ASSERT_EQ(c.status, 0) << c.output;
+  EXPECT_NE(c.output.find("rotate: 0.025 revolutions = 0.05 s = 3333 steps"), std::string::npos) << c.output;
+  ASSERT_EQ(run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1").status, 0);
+  const std::string log = slurp(d + "/out/run.log");
+  const std::size_t p = log.find("phase 'rotate' ends at t = ");
+  ASSERT_NE(p, std::string::npos) << log;
+  EXPECT_NE(log.substr(p, log.find('\n', p) - p).find(" after 3333 steps"), std::string::npos) << log.substr(p, 120);
+}
