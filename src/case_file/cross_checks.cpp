@@ -31,6 +31,8 @@ void CaseParser::check_something_to_simulate() const {
     fail("nothing to simulate: give a [drum] with [insertion] and [[population]], or [[particle]] entries");
   if (!cfg_.populations.empty() && !cfg_.insertion)
     fail("[[population]]: populations are only used by [insertion], which is missing");
+  if (cfg_.output.frame_every_s && !cfg_.drum)
+    fail("[output].frame_every_s: back-lit frames are cross-sections of the drum, and this case has no [drum]");
 }
 
 void CaseParser::check_unused() {

@@ -543,6 +543,13 @@ TEST(CaseParser, NothingToSimulateIsRejected) {
   EXPECT_ERROR_NAMES(t, "nothing to simulate");
 }
 
+// Frames are cross-sections of the drum: asked for in a scene without one, they are an error
+// (before, the run wrote an empty frames/ folder and said nothing).
+TEST(CaseParser, FramesWithoutADrumAreRejected) {
+  EXPECT_TRUE(error_of(kScene).empty()) << error_of(kScene);
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nframe_every_s = 0.001\n", "[output].frame_every_s");
+}
+
 TEST(CaseParser, SyntaxErrorNamesFileAndLine) {
   EXPECT_ERROR_NAMES("[run]\ndt_s = = 1\n", "case.toml:2:");
 }
