@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -21,6 +22,14 @@ const std::vector<std::pair<std::string, std::vector<std::string>>> kProduces = 
     {"heap", {"angle_of_repose_deg", "heap_height_m", "heap_base_radius_m"}},
     {"bulk_density", {"bulk_density_kg_m3", "solid_fraction", "core_solid_fraction"}},
     {"shear_box", {"retainment_ratio"}},
+};
+// The unit of each response, as its test writes it in responses.csv (bulk_responses.cpp): a
+// target is a value in that unit, so a target in another unit would be compared with numbers
+// it does not describe.
+const std::map<std::string, std::string> kUnit = {
+    {"angle_of_repose_deg", "deg"}, {"heap_height_m", "m"},        {"heap_base_radius_m", "m"},
+    {"bulk_density_kg_m3", "kg/m3"}, {"solid_fraction", "-"},      {"core_solid_fraction", "-"},
+    {"retainment_ratio", "-"},
 };
 const std::vector<std::string> kPairKeys = {"restitution", "sliding_friction", "rolling_friction",
                                             "cohesion_energy_density_j_m3"};
@@ -175,6 +184,9 @@ class CalibParser {
               std::find(responses.begin(), responses.end(), t.response) != responses.end())
             produced = true;
       if (!produced) fail(w + ".response = \"" + t.response + "\": no [[test]] case measures it");
+      if (const auto u = kUnit.find(t.response); u != kUnit.end() && t.unit != u->second)
+        fail(w + ".unit = \"" + t.unit + "\": " + t.response + " is measured in \"" + u->second +
+             "\"; give the target's value in it");
       c_.targets.push_back(t);
     }
   }
