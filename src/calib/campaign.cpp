@@ -133,7 +133,7 @@ class Campaign {
       const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
       const std::string what = "calibrate: stopped by " + name + " in generation " +
                                std::to_string(batch.front().generation) + " (" + std::to_string(stopped) +
-                               " test runs stopped with a checkpoint, " + std::to_string(unstarted) +
+                               " test runs stopped, " + std::to_string(unstarted) +
                                " not started; this generation is not scored); continue with --resume";
       log_ << what << "\n";
       log_.flush();

@@ -92,8 +92,15 @@ std::vector<TestRun> MpiJob::run(const std::vector<TestJob>& jobs) const {
     }
     out[id] = r;
     ++received;
-    if (sent < jobs.size()) send(st.MPI_SOURCE);
+    // After a campaign signal no new job is handed out (the ranks' runs in progress finish, or
+    // stop if mpirun passed the signal on to them); the rest are not started.
+    if (sent < jobs.size() && !CampaignSignals::received()) send(st.MPI_SOURCE);
   }
+  if (const int sig = CampaignSignals::received())
+    for (std::size_t q = sent; q < jobs.size(); ++q) {
+      out[q].rc = 128 + sig;
+      out[q].started = false;
+    }
   return out;
 }
 

@@ -32,6 +32,16 @@ bool finished_run(const std::string& dir, const std::string& text) {
   return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
 }
 
+// The last line of a resumed run's output says its checkpoint was refused (corrupt, or of
+// another case): the run goes again from the start. Any other error is the run's own.
+bool checkpoint_refused(const std::string& log) {
+  std::ifstream in(log);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty()) last = line;
+  return last.find("checkpoint.bin") != std::string::npos || last.find("--resume") != std::string::npos;
+}
+
 // A test run of the same case text that a signal stopped: it left a checkpoint and no "finished:".
 bool stopped_run(const std::string& dir, const std::string& text) {
   std::ifstream c(dir + "/case.toml");
@@ -47,9 +57,11 @@ std::atomic<int> g_signal{0};
 std::array<std::atomic<pid_t>, 1024> g_children{};
 
 extern "C" void on_campaign_signal(int sig) {
+  const int saved_errno = errno;  // kill() may set it in the thread the signal interrupted
   g_signal.store(sig);
   for (auto& c : g_children)
     if (const pid_t p = c.load(); p > 0) ::kill(p, sig);
+  errno = saved_errno;
 }
 
 struct sigaction g_old_int, g_old_term;
@@ -57,13 +69,13 @@ struct sigaction g_old_int, g_old_term;
 // Runs `args` (args[0] the program) with stdout and stderr to `log`, as a registered child: a
 // campaign signal that arrives before the child is registered is passed on right after. Returns
 // its exit status, 128 + N when signal N ended it, -1 when it could not be started.
-int run_child(const std::vector<std::string>& args, const std::string& log) {
+int run_child(const std::vector<std::string>& args, const std::string& log, bool append) {
   std::vector<char*> argv;
   for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | (append ? O_APPEND : O_TRUNC), 0644);
   posix_spawn_file_actions_adddup2(&fa, 1, 2);
   pid_t pid = 0;
   const int err = ::posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
@@ -78,10 +90,18 @@ int run_child(const std::vector<std::string>& args, const std::string& log) {
     }
   }
   if (const int sig = g_signal.load()) ::kill(pid, sig);
-  int st = 0;
-  while (::waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+  // Wait for the exit without reaping it, unregister, then reap: the handler never signals a
+  // pid that has been freed (and could belong to another process by then).
+  siginfo_t info{};
+  int w;
+  while ((w = ::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOWAIT)) < 0 && errno == EINTR) {
   }
   if (slot) slot->store(0);
+  int st = 0;
+  pid_t reaped;
+  while ((reaped = ::waitpid(pid, &st, 0)) < 0 && errno == EINTR) {
+  }
+  if (w < 0 || reaped != pid) return -1;  // (no status to read: not a success)
   if (WIFEXITED(st)) return WEXITSTATUS(st);
   if (WIFSIGNALED(st)) return 128 + WTERMSIG(st);
   return -1;
@@ -124,13 +144,13 @@ std::string current_executable() {
 
 TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text) {
   TestRun r;
-  fs::create_directories(dir);
-  const auto t0 = std::chrono::steady_clock::now();
   if (const int sig = g_signal.load()) {  // the campaign is stopping: start nothing
     r.rc = 128 + sig;
     r.started = false;
     return r;
   }
+  fs::create_directories(dir);
+  const auto t0 = std::chrono::steady_clock::now();
   if (!finished_run(dir, case_text)) {  // a run finished before a kill is re-used as it is (deterministic)
     std::vector<std::string> args = {biodem_exe, "run", dir + "/case.toml", "--out", dir + "/out", "--threads", "1"};
     // A run of the same text stopped by a signal resumes from its checkpoint (bit for bit);
@@ -138,13 +158,17 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
     bool resumed = false;
     if (stopped_run(dir, case_text)) {
       args.push_back("--resume");
-      r.rc = run_child(args, dir + "/stdout.txt");
+      r.rc = run_child(args, dir + "/stdout.txt", true);
       args.pop_back();
-      resumed = r.rc != 2;
+      resumed = !(r.rc == 2 && checkpoint_refused(dir + "/stdout.txt"));
     }
     if (!resumed) {
+      // The outputs of an earlier run of another text go first: a run stopped before it cleared
+      // them must not leave their "finished:" and responses beside the new case text.
+      fs::remove(dir + "/out/run.log");
+      fs::remove(dir + "/out/responses.csv");
       { std::ofstream(dir + "/case.toml") << case_text; }
-      r.rc = run_child(args, dir + "/stdout.txt");
+      r.rc = run_child(args, dir + "/stdout.txt", false);
     }
   }
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -160,7 +184,9 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   // when measured): the campaign reports them, as its responses may not mean what they say.
   std::ifstream log(dir + "/out/run.log");
   while (std::getline(log, line))
-    if (const auto w = line.find("WARNING: "); w != std::string::npos) r.warnings.push_back(line.substr(w));
+    if (const auto w = line.find("WARNING: ");
+        w != std::string::npos && line.find("the host gave this run only") == std::string::npos)  // (a timing note)
+      r.warnings.push_back(line.substr(w));
   return r;
 }
 

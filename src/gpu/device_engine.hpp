@@ -20,6 +20,7 @@
 // opposites; once, for both entries, by the entry kernels). A run resumed on the same device and
 // build therefore continues bit for bit.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -32,6 +33,10 @@
 namespace biodem::gpu {
 
 enum class Backend { Cuda, HostThreads };
+
+/// Most walls a sphere is tested against each step (the drum has three); make_device_engine
+/// refuses a scene with more.
+inline constexpr std::size_t kMaxDeviceWalls = 16;
 
 /// True when this biodem was built with the CUDA engine.
 bool cuda_built();

@@ -55,8 +55,6 @@ void to_host(H& h, const D& d) {
   if (!d.empty()) thrust::copy(d.begin(), d.end(), h.begin());
 }
 
-/// Most walls a sphere is tested against each step (the drum has three).
-inline constexpr std::size_t kMaxDeviceWalls = 16;
 /// Bodies are sorted by cell at the list build of every upload and at every kSortEvery-th build
 /// after it (docs/gpu.md, "Bodies sorted by cell"; BIODEM_GPU_SORT overrides). Measured
 /// emulated on the quick drums: one build interval puts 0.3-3 % of adjacent slots out of cell

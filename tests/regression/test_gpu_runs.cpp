@@ -213,6 +213,32 @@ TEST(GpuRuns, GpuWithoutGpuIsOneClearLine) {
   EXPECT_FALSE(fs::exists(d + "/k/series.csv"));
 }
 
+// More walls than the GPU engine takes (16): refused in one line before anything is written,
+// naming the case's key when the case asked for the engine (before, the refusal came at the
+// upload after insertion, and named --device either way).
+TEST(GpuRuns, TooManyWallsAreRefusedBeforeTheRun) {
+  const std::string d = fresh_dir("gpu_walls17");
+  fs::create_directories(d);
+  std::string text = slurp(kCase);
+  for (int k = 0; k < 14; ++k)  // + the drum's 3 = 17, all far below the drum
+    text += "\n[[wall]]\nkind = \"plane\"\npoint_m = [0.0, " + std::to_string(-1.0 - k) +
+            ", 0.0]\nnormal = [0.0, 1.0, 0.0]\nmaterial = \"steel\"\n";
+  std::ofstream(d + "/walls.toml") << text;
+  std::string keyed = text;
+  keyed.insert(keyed.find("[run]\n") + 6, "device = \"gpu-emulated\"\n");
+  std::ofstream(d + "/walls_key.toml") << keyed;
+  auto r = run_command(biodem_exe() + " run " + d + "/walls.toml --out " + d + "/a --device gpu-emulated");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("--device gpu: the scene has 17 walls"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d + "/a/series.csv"));
+  r = run_command(biodem_exe() + " run " + d + "/walls_key.toml --out " + d + "/b");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("walls_key.toml: [run] device = \"gpu-emulated\": the scene has 17 walls"), std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(d + "/b/series.csv"));
+  EXPECT_EQ(run_command(biodem_exe() + " check " + d + "/walls.toml").status, 0) << "the CPU engine takes them";
+}
+
 // The GPU engine's switches (docs/gpu.md, "Switches"): a value outside the documented ones stops
 // the run with status 2 and one line naming the variable, before anything is written.
 // (BIODEM_GPU_BLOCK is read by the CUDA engine only.)
