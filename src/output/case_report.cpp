@@ -243,8 +243,17 @@ std::string describe_case(const config::CaseConfig& c) {
         if (deq_min < deq_max) os << " to " << num(d.width_m / deq_min, 3);
         os << "\n";
       }
-      os << "  solid volume " << num(static_cast<double>(n) * vmean) << " m^3 = "
-         << num(100.0 * static_cast<double>(n) * vmean / vd, 3) << " % of the drum volume\n";
+      const double solid = static_cast<double>(n) * vmean / vd;
+      os << "  solid volume " << num(static_cast<double>(n) * vmean) << " m^3 = " << num(100.0 * solid, 3)
+         << " % of the drum volume";
+      // The fill fraction (bed bulk volume / drum volume) a count implies, at the bulk solid
+      // fraction [insertion] assumes (SPEC 11: check prints the count for a fill fraction, and
+      // here the converse).
+      if (ins.count)
+        os << "; a fill fraction of " << num(100.0 * solid / ins.bulk_solid_fraction, 3) << " % at bulk solid fraction "
+           << num(ins.bulk_solid_fraction) << " ([insertion].fill_fraction = " << num(solid / ins.bulk_solid_fraction, 3)
+           << " gives about this count)";
+      os << "\n";
       if (d.rpm != 0.0) os << "  one revolution: " << num(60.0 / std::abs(d.rpm)) << " s\n";
     }
   }

@@ -584,6 +584,21 @@ TEST(CaseReport, DescribesDerivedQuantities) {
     EXPECT_NE(r.find(part), std::string::npos) << part << "\n" << r;
 }
 
+// With a count, the report gives the fill fraction it implies (SPEC 11 asks for the converse),
+// and that fill fraction gives the count back (within the rounding of its three digits).
+TEST(CaseReport, CountGivesTheFillFractionThatGivesItBack) {
+  const auto c = case_file::parse_case(kSpecExample, "case.toml").config;
+  const std::string r = output::describe_case(c);
+  const std::string key = "[insertion].fill_fraction = ";
+  const std::size_t at = r.find(key);
+  ASSERT_NE(at, std::string::npos) << r;
+  const double fill = std::stod(r.substr(at + key.size()));
+  EXPECT_NEAR(fill, 0.44, 0.005);  // 19,791 beads of 1 mm: 26.4 % of the drum's volume, over 0.6
+  const auto f = case_file::parse_case(edit(kSpecExample, "count = 19791", "fill_fraction = " + std::to_string(fill)),
+                                       "case.toml").config;
+  EXPECT_NEAR(static_cast<double>(case_file::implied_particle_count(f)), 19791.0, 0.002 * 19791.0);
+}
+
 TEST(CaseReport, NeedleReportShowsSpheresAndLength) {
   std::string t = edit(kSpecExample, "kind = \"sphere\"\ndiameter_m = 1.0e-3",
                        "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 0.38");
