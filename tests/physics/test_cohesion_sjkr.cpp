@@ -9,13 +9,13 @@
 // radius^2 = R_i^2 - x^2; for a wall at distance d it has radius^2 = R^2 - d^2. The tests use
 // that geometric form as the independent reference.
 //
-// Cohesion-friction artefact (SPEC 2.4, inherited from LIGGGHTS and kept for fidelity): the
-// Coulomb and rolling limits use |F_n| with F_n the normal force AFTER cohesion. At the free
-// equilibrium of two cohesive spheres F_n = 0 (Hertz balances CED A), so that contact has no
-// friction at all; a hanging sphere has F_n = -W (tensile) and |F_n| = W gives it friction as if
-// it were pressed. The tests below are head-on (no tangential or rolling load), so the artefact
-// cannot affect them; no verification test relies on friction of a cohesive contact near or
-// beyond F_n = 0.
+// Friction limits of a cohesive contact (SPEC 2.2 as corrected): by default the Coulomb and
+// rolling limits use |Hertz + damping|, cohesion kept out (LIGGGHTS 3.8.0 `tangential_reduce
+// off`). With [contact] tangential_reduce = true they use |F_n| after cohesion: then at the free
+// equilibrium of two cohesive spheres F_n = 0 and that contact has no friction, and a hanging
+// sphere (F_n = -W, tensile) gets friction as if pressed with W. The tests below are head-on (no
+// tangential or rolling load), so neither rule affects them; the rules themselves are tested in
+// tests/unit/test_contact_laws.cpp and against LIGGGHTS in tests/physics/test_golden_liggghts.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -214,7 +214,7 @@ HangResult hang(double load_ratio, double ced, const Hanging& h) {
 // within the first 5 ms (v_z between -g t and -g (t - 5 ms)). Margins of 30 % on both sides make the
 // outcome insensitive to the dynamics (damping, dt): the start is the most favourable overlap
 // and at rest, and the 0.7 case cannot overshoot out past the unstable root (it would have to
-// gain energy). |F_n| = W here is tensile (artefact of the header), irrelevant head-on.
+// gain energy). F_n = -W here is tensile (see the header), irrelevant head-on.
 TEST(SjkrWall, SphereHangsBelowPullOffLoadAndFallsAboveIt) {
   const double ced = 25024.0;
   const Material wall = kBiomass;

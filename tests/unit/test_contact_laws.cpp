@@ -260,6 +260,18 @@ TEST(ComposedContact, TensileNormalForceIsNotClampedAndLimitsUseItsMagnitude) {
   const ContactOutput out = evaluate_contact<false, false>(c.g, c.p, c.h, 0.0, kDt);
   expect_rel(out.normal_force_n, 1.3333333333333335 - 5.0 * kGammaN);  // = -1.448163 N
   EXPECT_LT(out.normal_force_n, 0.0);
+  // Sliding while the normal force is tensile: the Coulomb limit is mu |F_n| = 0.3 x 1.448163 N
+  // (a signed F_n would give a negative bound), the rolling limit likewise mu_r R* |F_n|.
+  Composed s;
+  s.g.v_rel = {2.0, 0.0, 5.0};  // tangential 2 m/s: the trial force far above the limit
+  s.g.w_rel = {0.0, 5000.0, 0.0};  // the rolling trial (k_r w dt) far above its limit too
+  s.h = {};
+  const ContactOutput o2 = evaluate_contact<false, true>(s.g, s.p, s.h, 0.0, kDt);
+  EXPECT_EQ(o2.limit_force_n, o2.normal_force_n);
+  const Vec3 t_force = o2.force_i - o2.normal_force_n * s.g.normal;
+  expect_rel(norm(t_force), 0.3 * std::abs(out.normal_force_n));
+  EXPECT_LT(t_force.x, 0.0);  // opposes the sliding
+  expect_rel(norm(s.h.m_r), 0.2 * kR * std::abs(out.normal_force_n));
 }
 
 TEST(TimeStep, RayleighTimeOfTheGlassBeads) {

@@ -29,6 +29,34 @@ TEST(WallGeometry, RectangleBothSidesWithinItsSides) {
   EXPECT_FALSE(wall_hit(g, {1.0, 2.0, 3.5}, 0.4).touching);   // too far
 }
 
+// Plane: gap = (c - p).n along n on the particle side; a centre behind the plane by less than r
+// still touches (pushed back out), by more it does not (one-sided wall). Disc: the same within
+// its radius, nothing beyond its rim (edges are not modelled).
+TEST(WallGeometry, PlaneIsOneSidedAndDiscEndsAtItsRim) {
+  WallGeometry g;
+  g.kind = Kind::Plane;
+  g.point_m = {0, 1, 0};
+  g.normal = {0, 1, 0};
+  WallHit h = wall_hit(g, {5.0, 1.3, -7.0}, 0.4);  // anywhere along the plane
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.3, 1e-12);
+  EXPECT_NEAR(h.normal.y, 1.0, 1e-15);
+  EXPECT_FALSE(wall_hit(g, {0.0, 1.45, 0.0}, 0.4).touching);  // gap 0.45 > r
+  h = wall_hit(g, {0.0, 0.8, 0.0}, 0.4);                      // 0.2 behind: overlap 0.6, pushed along +n
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, -0.2, 1e-12);
+  EXPECT_NEAR(h.normal.y, 1.0, 1e-15);
+  EXPECT_FALSE(wall_hit(g, {0.0, 0.5, 0.0}, 0.4).touching);  // 0.5 behind, more than r: the other side
+
+  g.kind = Kind::Disc;
+  g.radius_m = 2.0;
+  h = wall_hit(g, {1.2, 1.3, 1.5}, 0.4);  // projection at radius 1.92 < 2
+  EXPECT_TRUE(h.touching);
+  EXPECT_NEAR(h.gap_m, 0.3, 1e-12);
+  EXPECT_FALSE(wall_hit(g, {1.5, 1.3, 1.5}, 0.4).touching);  // projection at radius 2.12 > 2
+  EXPECT_FALSE(wall_hit(g, {0.0, 0.5, 0.0}, 0.4).touching);  // behind by more than r
+}
+
 TEST(WallGeometry, FiniteTubeTouchedFromInsideAndOutside) {
   WallGeometry g;
   g.kind = Kind::Cylinder;
