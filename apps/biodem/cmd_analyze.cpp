@@ -86,6 +86,7 @@ output::Plot alpha_plot(const analysis::Series& s, const FlowabilityResult& r, s
                     std::size_t last_event, bool detailed) {
   output::Plot a;
   a.title = "Centroid angle";
+  a.legend = output::LegendPlace::automatic;  // the corner with the fewest points: α rises to the top right
   a.x_label = "revolution (turns)";
   a.y_label = "alpha (deg)";
   a.note = std::to_string(r.detection.events.size()) + " events, threshold " +

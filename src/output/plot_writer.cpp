@@ -305,11 +305,61 @@ std::vector<Pt> decimate(const std::vector<Pt>& pts, double width_px) {
   return out;
 }
 
+// The plot area inside the margins (the same for every canvas).
+cv::Rect2d plot_area(const Plot& p) {
+  const double W = p.width_px, H = p.height_px;
+  const double left = 78.0, right = 22.0, top = p.note.empty() ? 40.0 : 56.0, bottom = 58.0;
+  return {left, top, W - left - right, H - top - bottom};
+}
+
+// The legend box at a corner of the area, for a box of bw x bh pixels.
+cv::Rect2d legend_box(const cv::Rect2d& area, LegendPlace place, double bw, double bh) {
+  const bool left = place == LegendPlace::top_left || place == LegendPlace::bottom_left;
+  const bool bottom = place == LegendPlace::bottom_right || place == LegendPlace::bottom_left;
+  return {left ? area.x + 8.0 : area.x + area.width - bw - 8.0, bottom ? area.y + area.height - bh - 8.0 : area.y + 8.0,
+          bw, bh};
+}
+
+}  // namespace
+
+LegendPlace resolved_legend(const Plot& p) {
+  if (p.legend != LegendPlace::automatic) return p.legend;
+  const cv::Rect2d area = plot_area(p);
+  const Range xr = data_range(p, true), yr = data_range(p, false);
+  std::size_t entries = 0, chars = 0;
+  for (const auto& s : p.series)
+    if (!s.label.empty()) {
+      ++entries;
+      chars = std::max(chars, s.label.size());
+    }
+  // The box's size as draw() makes it, with the text width estimated (6.5 px a character at 11 px).
+  const double bw = 6.5 * static_cast<double>(chars) + 44.0, bh = 17.0 * static_cast<double>(entries) + 8.0;
+  LegendPlace best = LegendPlace::top_right;
+  std::size_t fewest = std::numeric_limits<std::size_t>::max();
+  for (LegendPlace place : {LegendPlace::top_right, LegendPlace::top_left, LegendPlace::bottom_right, LegendPlace::bottom_left}) {
+    const cv::Rect2d b = legend_box(area, place, bw, bh);
+    std::size_t covered = 0;
+    for (const auto& s : p.series)
+      for (std::size_t i = 0; i < std::min(s.x.size(), s.y.size()); ++i) {
+        if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) continue;
+        const double x = area.x + (s.x[i] - xr.lo) / (xr.hi - xr.lo) * area.width;
+        const double y = area.y + area.height - (s.y[i] - yr.lo) / (yr.hi - yr.lo) * area.height;
+        if (x >= b.x && x <= b.x + b.width && y >= b.y && y <= b.y + b.height) ++covered;
+      }
+    if (covered < fewest) {
+      fewest = covered;
+      best = place;
+    }
+  }
+  return best;
+}
+
+namespace {
+
 void draw(const Plot& p, Canvas& c) {
   const double W = p.width_px, H = p.height_px;
   const double font = 13.0, small = 11.0;
-  const double left = 78.0, right = 22.0, top = p.note.empty() ? 40.0 : 56.0, bottom = 58.0;
-  const cv::Rect2d area(left, top, W - left - right, H - top - bottom);
+  const cv::Rect2d area = plot_area(p);
   const Range xr = data_range(p, true), yr = data_range(p, false);
   auto X = [&](double v) { return area.x + (v - xr.lo) / (xr.hi - xr.lo) * area.width; };
   auto Y = [&](double v) { return area.y + area.height - (v - yr.lo) / (yr.hi - yr.lo) * area.height; };
@@ -373,13 +423,13 @@ void draw(const Plot& p, Canvas& c) {
   std::vector<std::size_t> entries;
   for (std::size_t k = 0; k < p.series.size(); ++k)
     if (!p.series[k].label.empty()) entries.push_back(k);
-  if (p.legend == LegendPlace::none || entries.empty()) return;
+  const LegendPlace place = resolved_legend(p);
+  if (place == LegendPlace::none || entries.empty()) return;
   double tw = 0.0;
   for (auto k : entries) tw = std::max(tw, c.text_width(p.series[k].label, small));
   const double row = 17.0, bw = tw + 44.0, bh = row * static_cast<double>(entries.size()) + 8.0;
-  double bx = area.x + area.width - bw - 8.0, by = area.y + 8.0;
-  if (p.legend == LegendPlace::top_left) bx = area.x + 8.0;
-  if (p.legend == LegendPlace::bottom_right) by = area.y + area.height - bh - 8.0;
+  const cv::Rect2d box = legend_box(area, place, bw, bh);
+  const double bx = box.x, by = box.y;
   c.rect({bx, by, bw, bh}, {160, 160, 160}, &kWhite, 1.0);
   for (std::size_t e = 0; e < entries.size(); ++e) {
     const auto& s = p.series[entries[e]];

@@ -16,7 +16,9 @@ namespace biodem::output {
 
 enum class PlotStyle { line, step, markers };
 enum class Marker { circle, triangle_down, triangle_up };
-enum class LegendPlace { none, top_left, top_right, bottom_right };
+/// Where the legend box goes; `automatic`: the corner of the plot area that covers the fewest
+/// data points (ties in the order top right, top left, bottom right, bottom left).
+enum class LegendPlace { none, top_left, top_right, bottom_right, bottom_left, automatic };
 
 struct PlotSeries {
   std::string label;  // legend entry; empty: not in the legend
@@ -40,6 +42,9 @@ struct Plot {
   int height_px = 560;
   std::string note;  // small text under the title (e.g. threshold used); optional
 };
+
+/// The corner `automatic` resolves to for this plot (any other place is returned as it is).
+LegendPlace resolved_legend(const Plot& plot);
 
 /// SVG document of the plot.
 std::string plot_to_svg(const Plot& plot);

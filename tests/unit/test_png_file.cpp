@@ -1,4 +1,4 @@
-// output::write_png (libpng's simplified API) against OpenCV's decoder: every pixel of a grey and
+// biodem::output::write_png (libpng's simplified API) against OpenCV's decoder: every pixel of a grey and
 // a BGR image comes back, including images whose rows are padded (a region of a larger image).
 #include <gtest/gtest.h>
 
@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "core/error.hpp"
+#include "output/plot_writer.hpp"
 #include "output/png_mat.hpp"
 
 namespace {
@@ -77,4 +78,33 @@ TEST(PngFile, RefusesWhatItCannotWriteWithThePath) {
   }
   const cv::Mat grey(4, 4, CV_8UC1, cv::Scalar(9));
   EXPECT_THROW(biodem::output::write_png("/nonexistent_dir_biodem/x.png", grey), biodem::Error);
+}
+
+// The automatic legend goes to the corner with the fewest data points: a series rising to the
+// top right (alpha before an avalanche) puts it top left; one falling from the top left, top
+// right; one filling the top, at the bottom. A legend left at its default stays where it is.
+TEST(PlotLegend, AutomaticCornerAvoidsTheData) {
+  biodem::output::Plot p;
+  p.legend = biodem::output::LegendPlace::automatic;
+  biodem::output::PlotSeries rise{"alpha", {}, {}};
+  for (int i = 0; i <= 200; ++i) {
+    rise.x.push_back(i / 200.0);
+    rise.y.push_back(30.0 + 10.0 * i / 200.0);
+  }
+  p.series = {rise};
+  EXPECT_EQ(biodem::output::resolved_legend(p), biodem::output::LegendPlace::top_left);
+  for (auto& y : p.series[0].y) y = 70.0 - y;  // falling from the top left
+  EXPECT_EQ(biodem::output::resolved_legend(p), biodem::output::LegendPlace::top_right);
+  biodem::output::PlotSeries top{"top", {}, {}};
+  for (int i = 0; i <= 200; ++i) {
+    top.x.push_back(i / 200.0);
+    top.y.push_back(i % 2 ? 40.0 : 39.0);  // a band along the top; the floor set by the next point
+  }
+  top.x.push_back(0.5);
+  top.y.push_back(0.0);
+  p.series = {top};
+  const auto place = biodem::output::resolved_legend(p);
+  EXPECT_TRUE(place == biodem::output::LegendPlace::bottom_right || place == biodem::output::LegendPlace::bottom_left);
+  p.legend = biodem::output::LegendPlace::top_right;
+  EXPECT_EQ(biodem::output::resolved_legend(p), biodem::output::LegendPlace::top_right);
 }
