@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <fstream>
 #include <string_view>
 #include <system_error>
 
@@ -82,6 +83,23 @@ std::vector<fs::path> list_frame_files(const std::string& folder) {
 
 namespace {
 
+// A PNG file ends with its IEND chunk (length 0, "IEND", CRC). One that does not was cut short
+// (a copy or a recording interrupted): libpng would print its own "libpng error" line on
+// stderr before the decoder gives up, so it is not handed to the decoder.
+bool truncated_png(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".png") return false;
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return true;
+  const std::streamoff size = in.tellg();
+  if (size < 20) return true;
+  char tail[12];
+  in.seekg(size - 12);
+  in.read(tail, 12);
+  return !in || std::string(tail + 4, 4) != "IEND";
+}
+
 class FolderSource final : public FrameSource {
  public:
   explicit FolderSource(const std::string& folder) : files_(list_frame_files(folder)) {}
@@ -96,6 +114,7 @@ class FolderSource final : public FrameSource {
   }
   void load(VideoFrame& f) const override {
     if (!f.grey.empty() || f.path.empty()) return;
+    if (truncated_png(f.path)) return;  // unreadable: skipped with the one-line warning of video
     try {
       f.grey = to_grey8(cv::imread(f.path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR));
     } catch (const cv::Exception&) {

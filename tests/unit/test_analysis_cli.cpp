@@ -222,11 +222,17 @@ TEST(AnalysisCli, VideoWritesSeriesAndSkipsCorruptFrames) {
   }
   { std::ofstream(frames / "img_3.png") << "this is not a png"; }
   { std::ofstream(frames / "notes.txt") << "camera settings"; }
+  // A real PNG cut short (a copy interrupted), sorted last: skipped with the same one line, and
+  // without libpng's own "libpng error: Read Error" line before it.
+  fs::copy_file(frames / "img_0.png", frames / "img_21.png");
+  fs::resize_file(frames / "img_21.png", fs::file_size(frames / "img_21.png") / 2);
 
   const auto r = test::run_biodem("video " + test::quote(frames) + " --fps 50 --rpm 0.5 --out " +
                                   test::quote(dir / "out") + " --quiet");
   ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_TRUE(contains(r.output, "warning: skipped 1 unreadable frame(s): img_3.png")) << r.output;
+  EXPECT_TRUE(contains(r.output, "warning: skipped 2 unreadable frame(s): img_3.png")) << r.output;
+  EXPECT_TRUE(contains(r.output, "img_21.png")) << r.output;
+  EXPECT_FALSE(contains(r.output, "libpng")) << r.output;
   const auto rows = read_csv(dir / "out" / "series.csv");
   ASSERT_EQ(rows.size(), 1u + tilt.size());
   EXPECT_EQ(rows[0][0], "time_s");
