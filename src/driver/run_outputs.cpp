@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <utility>
@@ -34,7 +35,11 @@ void Runner::sample() {
     yc += b.mass_kg[i] * b.position_m[i].y;
   }
   output::SeriesRow row;
-  row.time_s = sim_.time_s();
+  // The clock and the turn are sums of dt, one step at a time (the engines' own state); the
+  // series gives them as whole steps times dt, so that 174,000 steps of 2e-5 s read 3.48 rather
+  // than the sum's 3.48000000007 (every time in it is a whole number of steps).
+  const double dt = sim_.dt_s();
+  row.time_s = static_cast<double>(std::llround(sim_.time_s() / dt)) * dt;
   row.revolution = revolution();
   const bool clockwise = cfg_.drum && cfg_.drum->rpm < 0.0;  // alpha rises with the bed for either direction
   row.alpha_deg =
