@@ -36,8 +36,8 @@ void Runner::sample() {
   }
   output::SeriesRow row;
   // The clock and the turn are sums of dt, one step at a time (the engines' own state); the
-  // series gives them as whole steps times dt, so that 174,000 steps of 2e-5 s read 3.48 rather
-  // than the sum's 3.48000000007 (every time in it is a whole number of steps).
+  // series gives them as whole steps times dt (every time in it is a whole number of steps), so
+  // that they read 3.48 rather than the sum's 3.48000000001.
   const double dt = sim_.dt_s();
   row.time_s = static_cast<double>(std::llround(sim_.time_s() / dt)) * dt;
   row.revolution = revolution();
