@@ -131,8 +131,7 @@ double Runner::revolution() const {
   // Whole rotating steps times dt (rotation_time_s_ is their sum, with its rounding), as the
   // series gives the time.
   const double rpm = cfg_.drum ? std::abs(cfg_.drum->rpm) : 0.0;
-  const double dt = sim_.dt_s();
-  return static_cast<double>(std::llround(rotation_time_s_ / dt)) * dt * rpm / 60.0;
+  return config::whole_steps_time(rotation_time_s_, sim_.dt_s()) * rpm / 60.0;
 }
 
 

@@ -38,8 +38,7 @@ void Runner::sample() {
   // The clock and the turn are sums of dt, one step at a time (the engines' own state); the
   // series gives them as whole steps times dt (every time in it is a whole number of steps), so
   // that they read 3.48 rather than the sum's 3.48000000001.
-  const double dt = sim_.dt_s();
-  row.time_s = static_cast<double>(std::llround(sim_.time_s() / dt)) * dt;
+  row.time_s = config::whole_steps_time(sim_.time_s(), sim_.dt_s());
   row.revolution = revolution();
   const bool clockwise = cfg_.drum && cfg_.drum->rpm < 0.0;  // alpha rises with the bed for either direction
   row.alpha_deg =

@@ -3,6 +3,8 @@
 // count); damaged or missing checkpoints give a clear error.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -101,4 +103,30 @@ TEST(CheckpointRestart, CheckReportsThePhaseStepsTheRunMakes) {
   const std::size_t p = log.find("phase 'rotate' ends at t = ");
   ASSERT_NE(p, std::string::npos) << log;
   EXPECT_NE(log.substr(p, log.find('\n', p) - p).find(" after 3333 steps"), std::string::npos) << log.substr(p, 120);
+
+  // series.csv gives each time and turn as whole steps x dt, end to end (this short run's sums of
+  // dt happen to print the same at 12 digits; Steps.PhaseStepsAndTimesOfWholeSteps shows a sum
+  // that does not).
+  std::ifstream series(d + "/out/series.csv");
+  std::string line;
+  std::getline(series, line);
+  int rows = 0, turning = 0;
+  while (std::getline(series, line)) {
+    const std::string t = line.substr(0, line.find(','));
+    const std::string rev = line.substr(t.size() + 1, line.find(',', t.size() + 1) - t.size() - 1);
+    const double dt = 1.5e-5;
+    char want[64];
+    std::snprintf(want, sizeof want, "%.12g", static_cast<double>(std::llround(std::stod(t) / dt)) * dt);
+    EXPECT_EQ(t, want) << line;
+    if (std::stod(rev) > 0.0) {  // revolution = rotating steps x dt x 30 rpm / 60
+      ++turning;
+      const double steps = std::stod(rev) * 60.0 / 30.0 / dt;
+      EXPECT_NEAR(steps, std::round(steps), 1e-6) << line;
+      std::snprintf(want, sizeof want, "%.12g", std::round(steps) * dt * 30.0 / 60.0);
+      EXPECT_EQ(rev, want) << line;
+    }
+    ++rows;
+  }
+  EXPECT_GT(rows, 10);
+  EXPECT_GT(turning, 3);
 }

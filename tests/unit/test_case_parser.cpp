@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -10,6 +11,7 @@
 #include "contact/time_step.hpp"
 #include "core/error.hpp"
 #include "case_file/case_parser.hpp"
+#include "config/steps.hpp"
 #include "case_file/derived_quantities.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
@@ -572,6 +574,24 @@ TEST(CaseParser, LoadCaseReadsFile) {
   EXPECT_EQ(lc.config.source_path, path);
   EXPECT_NE(lc.warnings.at(0).rfind(path, 0), std::string::npos);
   std::filesystem::remove_all(dir);
+}
+
+// ------------------------------------------------------------------ steps
+
+// The one rounding of phase lengths, and times written as whole steps: 348,000 steps of 1e-5 s
+// summed one at a time (as the engines' clocks) print as 3.48000000015 at 12 digits; written as
+// whole steps they print 3.48.
+TEST(Steps, PhaseStepsAndTimesOfWholeSteps) {
+  EXPECT_EQ(config::steps_for(0.05, 1.5e-5), 3333u);  // 3333.3: rounded, not up
+  EXPECT_EQ(config::steps_for(0.2, 1e-5), 20000u);
+  double t = 0.0;
+  for (int n = 0; n < 348000; ++n) t += 1e-5;
+  char sum[64], whole[64];
+  std::snprintf(sum, sizeof sum, "%.12g", t);
+  std::snprintf(whole, sizeof whole, "%.12g", config::whole_steps_time(t, 1e-5));
+  EXPECT_STRNE(sum, "3.48") << "the sum shows its rounding (else this test shows nothing)";
+  EXPECT_STREQ(whole, "3.48");
+  EXPECT_EQ(config::whole_steps_time(0.0, 1e-5), 0.0);
 }
 
 // ------------------------------------------------------------------ report
