@@ -579,7 +579,7 @@ TEST(CaseParser, LoadCaseReadsFile) {
 // ------------------------------------------------------------------ steps
 
 // The one rounding of phase lengths, and times written as whole steps: 348,000 steps of 1e-5 s
-// summed one at a time (as the engines' clocks) print as 3.48000000015 at 12 digits; written as
+// summed one at a time (as the engines' clocks) print as 3.48000000001 at 12 digits; written as
 // whole steps they print 3.48.
 TEST(Steps, PhaseStepsAndTimesOfWholeSteps) {
   EXPECT_EQ(config::steps_for(0.05, 1.5e-5), 3333u);  // 3333.3: rounded, not up
