@@ -8,7 +8,7 @@
 # logs/com_<case>_np<N><suffix>.txt.  Summarise with:  python3 parse_logs.py logs/*.log
 #
 # Steps per case (settle, then timed rotation run; "Loop time" of the rotation run is the figure):
-#   glass        nsettle 10000  nrot 10000
+#   glass        nsettle 30000  nrot 10000   (the 100 mm bed comes to rest ~0.3 s = 20,000 steps)
 #   glass_small  nsettle 10000  nrot 20000
 #   raw          nsettle 30000  nrot  2000   (the 400 mm bed needs ~0.3 s to come to rest)
 #
@@ -36,7 +36,7 @@ mkdir -p logs
 
 for c in $cases; do
     case $c in
-        glass)       ns=10000; nr=10000 ;;
+        glass)       ns=30000; nr=10000 ;;
         glass_small) ns=10000; nr=20000 ;;
         raw)         ns=30000; nr=2000 ;;
         *) echo "unknown case '$c' (glass, glass_small, raw)" >&2; exit 2 ;;
