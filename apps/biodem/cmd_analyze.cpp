@@ -15,6 +15,7 @@
 #include "analysis/flowability.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/analysis_files.hpp"
 #include "output/output_dir.hpp"
 #include "output/plot_writer.hpp"
 #include "output/series_csv.hpp"
@@ -40,34 +41,6 @@ struct AnalyzeOptions {
   CLI::Option* skip_rev_opt = nullptr;
   CLI::Option* rpm_opt = nullptr;
 };
-
-// Written whole through a temporary file and a rename (output::write_file_atomic): a reader, or
-// an analysis killed mid-write, sees the old file or the complete new one.
-void write_events_csv(const fs::path& path, const FlowabilityResult& r) {
-  std::ostringstream out;
-  out << "start_time_s,start_revolution,uas_deg,end_time_s,drop_deg,interval_s,f_percent\n";
-  for (const auto& e : r.detection.events) {
-    out << output::csv_number(e.start_time_s, 12) << ',' << output::csv_number(e.start_revolution, 12)
-        << ',' << output::csv_number(e.uas_deg) << ',' << output::csv_number(e.end_time_s, 12) << ','
-        << output::csv_number(e.drop_deg) << ','
-        << (e.interval_s ? output::csv_number(*e.interval_s, 12) : "") << ','
-        << (e.f_percent ? output::csv_number(*e.f_percent) : "") << '\n';
-  }
-  output::write_file_atomic(path.string(), out.str());
-}
-
-void write_descriptors_csv(const fs::path& path, const FlowabilityResult& r) {
-  std::ostringstream out;
-  out << "descriptor,count,mean,p10,p50,p90,span\n";
-  const auto table = analysis::descriptor_table();
-  for (std::size_t k = 0; k < table.size(); ++k) {
-    const auto& d = r.distributions[k];
-    out << table[k].name << ',' << d.count << ',' << output::csv_number(d.mean) << ','
-        << output::csv_number(d.p10) << ',' << output::csv_number(d.p50) << ','
-        << output::csv_number(d.p90) << ',' << output::csv_number(d.span) << '\n';
-  }
-  output::write_file_atomic(path.string(), out.str());
-}
 
 std::string fmt(double v, const char* f = "%.4g") {
   if (!std::isfinite(v)) return "-";
@@ -224,8 +197,8 @@ int run_analyze(const AnalyzeOptions& o) {
   for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
 
   const fs::path dir = series_path.parent_path().empty() ? fs::path(".") : series_path.parent_path();
-  write_events_csv(dir / "events.csv", r);
-  write_descriptors_csv(dir / "descriptors.csv", r);
+  output::write_events_csv((dir / "events.csv").string(), r);
+  output::write_descriptors_csv((dir / "descriptors.csv").string(), r);
   if (!o.no_plots) write_plots(dir, file.series, r);
 
   const auto& s = file.series;

@@ -3,6 +3,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -23,6 +24,20 @@ const std::vector<std::pair<std::string, std::vector<std::string>>> kProduces = 
     {"bulk_density", {"bulk_density_kg_m3", "solid_fraction", "core_solid_fraction"}},
     {"shear_box", {"retainment_ratio"}},
 };
+const char* const kBulkBlocks[] = {"heap", "bulk_density", "shear_box"};
+
+// The responses a test produces: a bulk test's (kProduces), a drum test's (drum_test.hpp).
+bool produces(const CalibTest& test, const std::string& response) {
+  if (test.drum) {
+    const auto& n = drum_response_names();
+    return std::find(n.begin(), n.end(), response) != n.end();
+  }
+  for (const auto& [block, responses] : kProduces)
+    if (test.case_text.find("[" + block + "]") != std::string::npos &&
+        std::find(responses.begin(), responses.end(), response) != responses.end())
+      return true;
+  return false;
+}
 // The unit of each response, as its test writes it in responses.csv (bulk_responses.cpp): a
 // target is a value in that unit, so a target in another unit would be compared with numbers
 // it does not describe.
@@ -133,7 +148,7 @@ class CalibParser {
     std::set<std::string> names;
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string w = "[[test]] #" + std::to_string(i + 1);
-      only(*list[i], w, {"name", "case", "base"});
+      only(*list[i], w, {"name", "case", "base", "min_drop_deg", "skip_s", "skip_rev"});
       CalibTest t;
       t.name = str(*list[i], w, "name");
       if (t.name.empty() || t.name.find_first_of("/ \\") != std::string::npos)
@@ -160,6 +175,29 @@ class CalibParser {
         for (auto&& [k, v] : tb)
           if (!tc.contains(k.str())) tc.insert(k.str(), v);
       }
+      // A drum test: a [drum] and no bulk-test block; its analysis options (analyze's).
+      const bool bulk = std::any_of(std::begin(kBulkBlocks), std::end(kBulkBlocks),
+                                    [&](const char* b) { return tc.contains(b); });
+      if (tc.contains("drum") && !bulk) {
+        DrumAnalysis a;
+        auto positive = [&](const char* key, bool zero_ok) -> std::optional<double> {
+          if (!list[i]->contains(key)) return std::nullopt;
+          const double v = real(*list[i], w, key);
+          if (!(zero_ok ? v >= 0.0 : v > 0.0) || !std::isfinite(v))
+            fail(w + "." + key + " = " + std::to_string(v) + ": must be " + (zero_ok ? "at least 0" : "positive"));
+          return v;
+        };
+        a.min_drop_deg = positive("min_drop_deg", false);
+        a.skip_s = positive("skip_s", true);
+        a.skip_rev = positive("skip_rev", true);
+        if (a.skip_s && a.skip_rev) fail(w + ": skip_s and skip_rev both given; give one");
+        t.drum = a;
+      } else {
+        for (const char* key : {"min_drop_deg", "skip_s", "skip_rev"})
+          if (list[i]->contains(key))
+            fail(w + "." + key + ": an analysis option of drum tests; case " + t.case_path +
+                 " is not a drum test (it needs a [drum] and no [heap], [bulk_density] or [shear_box])");
+      }
       std::ostringstream os;
       os << tc;
       t.case_text = os.str();
@@ -177,15 +215,17 @@ class CalibParser {
       t.value = real(*list[i], w, "value");
       t.unit = str(*list[i], w, "unit");
       if (t.value == 0.0) fail(w + ".value = 0: a relative error needs a non-zero target");
-      bool produced = false;
+      bool produced = false, by_drum = false;
       for (const auto& test : c_.tests)
-        for (const auto& [block, responses] : kProduces)
-          if (test.case_text.find("[" + block + "]") != std::string::npos &&
-              std::find(responses.begin(), responses.end(), t.response) != responses.end())
-            produced = true;
+        if (produces(test, t.response)) {
+          produced = true;
+          by_drum = by_drum || test.drum.has_value();
+        }
       if (!produced) fail(w + ".response = \"" + t.response + "\": no [[test]] case measures it");
-      if (const auto u = kUnit.find(t.response); u != kUnit.end() && t.unit != u->second)
-        fail(w + ".unit = \"" + t.unit + "\": " + t.response + " is measured in \"" + u->second +
+      const auto u = kUnit.find(t.response);
+      const std::string unit = u != kUnit.end() ? u->second : by_drum ? drum_response_unit(t.response) : "";
+      if (!unit.empty() && t.unit != unit)
+        fail(w + ".unit = \"" + t.unit + "\": " + t.response + " is measured in \"" + unit +
              "\"; give the target's value in it");
       c_.targets.push_back(t);
     }
@@ -291,12 +331,17 @@ class CalibParser {
       for (int end = 0; end < 2; ++end) {
         std::vector<double> x;
         for (const auto& p : c_.parameters) x.push_back(end ? p.upper : p.lower);
+        bool rotates = false;
         try {
-          case_file::parse_case(apply_parameters(c_, t, x), t.case_path);
+          const auto loaded = case_file::parse_case(apply_parameters(c_, t, x), t.case_path);
+          rotates = std::any_of(loaded.config.phases.begin(), loaded.config.phases.end(),
+                                [](const config::Phase& ph) { return ph.rotate; });
         } catch (const Error& e) {
           fail("[[test]] \"" + t.name + "\" with the parameters at their " + (end ? "upper" : "lower") +
                " bounds: " + e.what());
         }
+        if (t.drum && !rotates)
+          fail("[[test]] \"" + t.name + "\": a drum test needs a [[phase]] with rotate = true (its events are of the turning drum)");
       }
     }
   }

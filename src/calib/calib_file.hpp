@@ -4,8 +4,11 @@
 // the key, before any simulation runs. Format and meaning: docs/calibration.md.
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "calib/drum_test.hpp"
 
 namespace biodem::calib {
 
@@ -13,6 +16,9 @@ struct CalibTest {
   std::string name;       // e.g. "heap"; runs go to DIR/runs/g<gen>/e<index>/<name>
   std::string case_path;  // resolved against the CALIB file's folder
   std::string case_text;  // the case with the base case merged in (TOML text)
+  /// Set for a drum test (a case with [drum] and no bulk-test block; calib/drum_test.hpp): its
+  /// responses come from the flowability analysis of its series, with these options.
+  std::optional<DrumAnalysis> drum;
 };
 
 struct CalibTarget {

@@ -26,12 +26,15 @@ class Campaign {
   Campaign(const CalibConfig& c, const CampaignOptions& o, const MpiJob* mpi) : c_(c), o_(o), mpi_(mpi) {
     if (!o_.runner) {
       const std::string exe = o_.biodem_exe.empty() ? current_executable() : o_.biodem_exe;
-      o_.runner = [exe](const TestJob& j) { return run_test_process(exe, j.dir, j.case_text); };
+      o_.runner = [exe](const TestJob& j) { return run_test_process(exe, j.dir, j.case_text, j.drum); };
     }
   }
 
   CampaignSummary run() {
     const std::string& out = o_.out_dir;
+    // --evaluate: the vectors are read (and checked) before anything is written or run.
+    std::vector<std::vector<double>> given;
+    if (!o_.evaluate_csv.empty()) given = read_parameter_rows(o_.evaluate_csv, c_);
     const CampaignSignals signals;  // SIGINT / SIGTERM stop the campaign, not just its test runs
     const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
     const auto names = response_names(c_);
@@ -44,9 +47,12 @@ class Campaign {
     }
     fs::create_directories(out + "/runs");
     log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
-    log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; population " << c_.population
-         << ", generations " << c_.generations << ", seed " << c_.seed << ", jobs " << o_.jobs << "; "
-         << cache.size() << " evaluations cached\n";
+    log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; ";
+    if (given.empty())
+      log_ << "population " << c_.population << ", generations " << c_.generations << ", seed " << c_.seed;
+    else
+      log_ << "evaluating the " << given.size() << " parameter vectors of " << o_.evaluate_csv << " (--evaluate, no search)";
+    log_ << ", jobs " << o_.jobs << "; " << cache.size() << " evaluations cached\n";
     log_.flush();
     {
       std::ofstream f(cache_csv, std::ios::app);
@@ -65,9 +71,9 @@ class Campaign {
     s.population = c_.population;
     s.generations = c_.generations;
     s.seed = c_.seed;
-    const std::uint64_t batches = c_.generations + 1;
+    const std::uint64_t batches = given.empty() ? c_.generations + 1 : 1;
     std::uint64_t done = 0;
-    const auto res = run_nsga2(
+    const auto res = !given.empty() ? evaluate_given(given, cache) : run_nsga2(
         s, [&](std::vector<Evaluation>& b) { evaluate(b); },
         [&](const std::vector<Evaluation>& b) {
           for (const auto& e : b) evals_ << evaluation_row(e) << "\n";
@@ -117,6 +123,7 @@ class Campaign {
         j.dir = o_.out_dir + "/runs/g" + std::to_string(batch[e].generation) + "/e" + std::to_string(batch[e].index) +
                 "/" + c_.tests[t].name;
         j.case_text = apply_parameters(c_, c_.tests[t], batch[e].x);
+        j.drum = c_.tests[t].drum;
         j.x = batch[e].x;
         jobs.push_back(std::move(j));
       }
@@ -153,7 +160,8 @@ class Campaign {
       const std::string who = "evaluation g" + std::to_string(batch[j.evaluation].generation) + " e" +
                               std::to_string(batch[j.evaluation].index) + " " + c_.tests[j.test].name + ": ";
       for (const auto& w : r.warnings) {
-        log_ << who << w << " (" << j.dir << "/out/run.log)\n";
+        const bool analysis = w.rfind("WARNING: drum test:", 0) == 0;  // (measure_drum's, not the run's)
+        log_ << who << w << " (" << j.dir << (analysis ? "/out/events.csv" : "/out/run.log") << ")\n";
         ++warned_runs_;
       }
       if (const auto h = r.responses.find("heap_found"); h != r.responses.end() && h->second == 0.0) {
@@ -167,6 +175,15 @@ class Campaign {
       for (const auto& n : names) ev.responses.push_back(responses[e].count(n) ? responses[e][n] : NAN);
       ev.o1 = objective(c_, c_.o1, responses[e]);
       ev.o2 = objective(c_, c_.o2, responses[e]);
+      if (errors[e].empty() && (!std::isfinite(ev.o1) || !std::isfinite(ev.o2))) {
+        std::string missing;  // the responses an objective needs and the tests did not give
+        for (const auto* o : {&c_.o1, &c_.o2})
+          for (const auto& n : o->responses)
+            if ((!responses[e].count(n) || !std::isfinite(responses[e][n])) &&
+                missing.find(" " + n + ",") == std::string::npos)
+              missing += " " + n + ",";
+        if (!missing.empty()) errors[e] = " no value of" + missing.substr(0, missing.size() - 1);
+      }
       if (!errors[e].empty() || !std::isfinite(ev.o1) || !std::isfinite(ev.o2)) {
         log_ << "evaluation g" << ev.generation << " e" << ev.index << ":" << errors[e]
              << " - scored as o1 = o2 = 1e9\n";
@@ -176,6 +193,45 @@ class Campaign {
       cache_out_ << evaluation_row(ev) << "\n";
     }
     cache_out_.flush();
+  }
+
+  // --evaluate: one batch of the given vectors (generation 0, index = row); those in the cache of
+  // an interrupted attempt (--resume) are not run again.
+  CampaignResult evaluate_given(const std::vector<std::vector<double>>& given,
+                                std::map<std::vector<double>, Evaluation>& cache) {
+    std::vector<Evaluation> all(given.size()), todo;
+    for (std::size_t i = 0; i < given.size(); ++i) {
+      all[i].index = i;
+      all[i].x = given[i];
+      if (const auto it = cache.find(given[i]); it != cache.end()) {
+        all[i] = it->second;
+        all[i].generation = 0;
+        all[i].index = i;
+      } else {
+        todo.push_back(all[i]);
+      }
+    }
+    evaluate(todo);
+    for (const auto& e : todo) {
+      all[e.index] = e;
+      cache[e.x] = e;
+    }
+    for (const auto& e : all) evals_ << evaluation_row(e) << "\n";
+    evals_.flush();
+    double best1 = INFINITY, best2 = INFINITY;
+    for (const auto& e : all) {
+      best1 = std::min(best1, e.o1);
+      best2 = std::min(best2, e.o2);
+    }
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    log_ << "evaluated " << all.size() << " vectors (" << todo.size() << " run now): best o1 " << best1 << ", best o2 "
+         << best2 << "; elapsed " << el << " s\n";
+    log_.flush();
+    std::cerr << "calibrate: " << all.size() << " vectors evaluated\n";
+    CampaignResult r;
+    r.evaluations = all;
+    r.pareto = pareto_front(all);
+    return r;
   }
 
   const CalibConfig& c_;

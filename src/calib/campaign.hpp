@@ -23,6 +23,10 @@ struct CampaignOptions {
   std::string out_dir;
   int jobs = 1;         // test runs at once on this machine (child processes)
   bool resume = false;  // re-use out_dir/cache.csv of an interrupted campaign
+  std::string evaluate_csv;
+  /// `--evaluate FILE`: no search; evaluate the parameter vectors of FILE's rows (read_parameter_rows:
+  /// a pareto.csv of a bulk-test campaign, to be narrowed by a drum test; SPEC 7) as one batch,
+  /// generation 0, index = row, and write the same files (pareto.csv: the non-dominated rows).
   /// How a test runs; empty: `biodem run` as a child process of biodem_exe.
   TestRunner runner;
   /// The `biodem` that runs the tests; empty: this process's executable.

@@ -1,10 +1,12 @@
 #include "calib/evaluations_csv.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <sstream>
 
 #include "calib/objectives.hpp"
+#include "core/error.hpp"
 
 namespace biodem::calib {
 namespace {
@@ -13,6 +15,19 @@ std::string g17(double v) {
   char b[40];
   std::snprintf(b, sizeof b, "%.17g", v);
   return b;
+}
+
+std::vector<std::string> fields(const std::string& line) {
+  std::vector<std::string> f;
+  std::stringstream ss(line);
+  std::string c;
+  while (std::getline(ss, c, ',')) {
+    while (!c.empty() && (c.back() == '\r' || c.back() == ' ')) c.pop_back();
+    while (!c.empty() && c.front() == ' ') c.erase(c.begin());
+    f.push_back(c);
+  }
+  if (!line.empty() && line.back() == ',') f.emplace_back();
+  return f;
 }
 
 }  // namespace
@@ -59,6 +74,48 @@ std::vector<Evaluation> read_evaluations(const std::string& path, std::size_t n_
     }
   }
   return out;
+}
+
+std::vector<std::vector<double>> read_parameter_rows(const std::string& path, const CalibConfig& c) {
+  std::ifstream in(path);
+  if (!in) throw Error("--evaluate " + path + ": cannot read");
+  std::string line;
+  if (!std::getline(in, line)) throw Error("--evaluate " + path + ": empty file (a header row naming the parameters is needed)");
+  const auto header = fields(line);
+  std::vector<std::size_t> column;
+  for (const auto& p : c.parameters) {
+    std::size_t k = 0;
+    while (k < header.size() && header[k] != p.name) ++k;
+    if (k == header.size())
+      throw Error("--evaluate " + path + ": no column \"" + p.name + "\" (a parameter of " + c.source_path + ")");
+    column.push_back(k);
+  }
+  std::vector<std::vector<double>> rows;
+  for (std::size_t n = 2; std::getline(in, line); ++n) {
+    if (line.empty() || line == "\r") continue;
+    const auto f = fields(line);
+    std::vector<double> x;
+    for (std::size_t k = 0; k < column.size(); ++k) {
+      const auto& p = c.parameters[k];
+      const std::string where = "--evaluate " + path + " line " + std::to_string(n) + ", column " + p.name;
+      if (column[k] >= f.size()) throw Error(where + ": missing");
+      double v = NAN;
+      std::size_t used = 0;
+      try {
+        v = std::stod(f[column[k]], &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used == 0 || used != f[column[k]].size() || !std::isfinite(v))
+        throw Error(where + ": \"" + f[column[k]] + "\" is not a number");
+      if (v < p.lower || v > p.upper)
+        throw Error(where + " = " + g17(v) + ": outside the parameter's bounds [" + g17(p.lower) + ", " + g17(p.upper) + "]");
+      x.push_back(v);
+    }
+    rows.push_back(std::move(x));
+  }
+  if (rows.empty()) throw Error("--evaluate " + path + ": no rows to evaluate");
+  return rows;
 }
 
 }  // namespace biodem::calib

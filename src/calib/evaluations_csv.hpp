@@ -18,4 +18,11 @@ std::string evaluation_row(const Evaluation& e);
 /// (a kill mid-write) are skipped. A missing file reads as no rows.
 std::vector<Evaluation> read_evaluations(const std::string& path, std::size_t n_param, std::size_t n_resp);
 
+/// The decision vectors of `calibrate --evaluate FILE`: a CSV file with a header row that names
+/// every parameter of `c` (other columns, such as a pareto.csv's responses and objectives, are
+/// ignored), one vector per row, in row order. Throws biodem::Error naming the file, the line and
+/// the column on a missing column, a cell that is not a number or a value outside the
+/// parameter's bounds, and on a file without rows.
+std::vector<std::vector<double>> read_parameter_rows(const std::string& path, const CalibConfig& c);
+
 }  // namespace biodem::calib

@@ -69,7 +69,7 @@ std::vector<TestRun> MpiJob::run(const std::vector<TestJob>& jobs) const {
   std::size_t sent = 0, received = 0;
   auto send = [&](int rank) {
     const TestJob& j = jobs[sent];
-    send_text(std::to_string(sent) + "\n" + j.dir + "\n" + j.case_text, rank, kTagJob);
+    send_text(std::to_string(sent) + "\n" + j.dir + "\n" + encode_drum_line(j.drum) + "\n" + j.case_text, rank, kTagJob);
     ++sent;
   };
   for (int rank = 1; rank < size_ && sent < jobs.size(); ++rank) send(rank);
@@ -114,9 +114,10 @@ void MpiJob::serve(const std::string& biodem_exe) const {
       return;
     }
     const std::string msg = recv_text(0, kTagJob, st);
-    const auto a = msg.find('\n'), b = msg.find('\n', a + 1);
-    const std::string id = msg.substr(0, a), dir = msg.substr(a + 1, b - a - 1), text = msg.substr(b + 1);
-    const TestRun r = run_test_process(biodem_exe, dir, text);
+    const auto a = msg.find('\n'), b = msg.find('\n', a + 1), c = msg.find('\n', b + 1);
+    const std::string id = msg.substr(0, a), dir = msg.substr(a + 1, b - a - 1), drum = msg.substr(b + 1, c - b - 1),
+                      text = msg.substr(c + 1);
+    const TestRun r = run_test_process(biodem_exe, dir, text, decode_drum_line(drum));
     std::string out = id + " " + std::to_string(r.rc) + " " + g17(r.wall_s) + "\n";
     for (const auto& [k, v] : r.responses) out += k + "," + g17(v) + "\n";
     for (const auto& w : r.warnings) out += "!" + w + "\n";

@@ -23,13 +23,15 @@ namespace {
 namespace fs = std::filesystem;
 
 // A test run of an earlier (killed) attempt at the same evaluation: same case text, and its
-// run.log ends with "finished:" (written after responses.csv).
-bool finished_run(const std::string& dir, const std::string& text) {
+// run.log ends with "finished:" (written after responses.csv; a drum test's responses are
+// measured again from its series).
+bool finished_run(const std::string& dir, const std::string& text, bool drum) {
   std::ifstream c(dir + "/case.toml"), l(dir + "/out/run.log");
   if (!c || !l) return false;
   const std::string old((std::istreambuf_iterator<char>(c)), std::istreambuf_iterator<char>());
   const std::string log((std::istreambuf_iterator<char>(l)), std::istreambuf_iterator<char>());
-  return old == text && log.find("\nfinished: ") != std::string::npos && fs::exists(dir + "/out/responses.csv");
+  return old == text && log.find("\nfinished: ") != std::string::npos &&
+         (drum || fs::exists(dir + "/out/responses.csv"));
 }
 
 // The last line of a resumed run's output says its checkpoint was refused (corrupt, or of
@@ -142,7 +144,8 @@ std::string current_executable() {
   return self.string();
 }
 
-TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text) {
+TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text,
+                         const std::optional<DrumAnalysis>& drum) {
   TestRun r;
   if (const int sig = g_signal.load()) {  // the campaign is stopping: start nothing
     r.rc = 128 + sig;
@@ -151,7 +154,7 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   }
   fs::create_directories(dir);
   const auto t0 = std::chrono::steady_clock::now();
-  if (!finished_run(dir, case_text)) {  // a run finished before a kill is re-used as it is (deterministic)
+  if (!finished_run(dir, case_text, drum.has_value())) {  // a run finished before a kill is re-used as it is (deterministic)
     std::vector<std::string> args = {biodem_exe, "run", dir + "/case.toml", "--out", dir + "/out", "--threads", "1"};
     // A run of the same text stopped by a signal resumes from its checkpoint (bit for bit);
     // should the checkpoint be refused (status 2), it runs again from the start.
@@ -171,15 +174,24 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
       r.rc = run_child(args, dir + "/stdout.txt", false);
     }
   }
-  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::ifstream in(dir + "/out/responses.csv");
   std::string line;
-  std::getline(in, line);
-  while (std::getline(in, line)) {
-    const auto c1 = line.find(','), c2 = line.find(',', c1 + 1);
-    if (c1 == std::string::npos || c2 == std::string::npos) continue;
-    r.responses[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
+  if (drum) {
+    // The drum's descriptors from its series, once the run has finished (rc 0 or re-used).
+    if (r.rc == 0) {
+      DrumMeasurement m = measure_drum(dir + "/out", *drum);
+      r.responses = std::move(m.responses);
+      r.warnings = std::move(m.warnings);
+    }
+  } else {
+    std::ifstream in(dir + "/out/responses.csv");
+    std::getline(in, line);
+    while (std::getline(in, line)) {
+      const auto c1 = line.find(','), c2 = line.find(',', c1 + 1);
+      if (c1 == std::string::npos || c2 == std::string::npos) continue;
+      r.responses[line.substr(0, c1)] = std::stod(line.substr(c1 + 1, c2 - c1 - 1));
+    }
   }
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // The run's warnings (a fill too low or too high for the heap procedure, a scene not at rest
   // when measured): the campaign reports them, as its responses may not mean what they say.
   std::ifstream log(dir + "/out/run.log");

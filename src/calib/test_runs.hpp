@@ -6,8 +6,11 @@
 #include <cstddef>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "calib/drum_test.hpp"
 
 namespace biodem::calib {
 
@@ -16,6 +19,7 @@ struct TestJob {
   std::string dir;                       // the run's folder
   std::string case_text;                 // the test's case with the parameters applied
   std::vector<double> x;                 // the evaluation's decision vector
+  std::optional<DrumAnalysis> drum;      // a drum test: its responses come from the analysis of its series
 };
 
 struct TestRun {
@@ -34,8 +38,10 @@ using TestRunner = std::function<TestRun(const TestJob&)>;
 /// Writes `dir`/case.toml and runs `biodem_exe run` on it into `dir`/out (stdout and stderr to
 /// `dir`/stdout.txt), or re-uses a finished earlier run of the same text, or resumes a stopped
 /// one of the same text from its checkpoint (`run --resume`; from the start if that is refused);
-/// reads its responses.csv.
-TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text);
+/// reads its responses.csv. For a drum test (`drum`), a finished run's series is analysed
+/// (measure_drum: events.csv, descriptors.csv and responses.csv beside it) instead.
+TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text,
+                         const std::optional<DrumAnalysis>& drum = std::nullopt);
 
 /// The signal that stopped a test run whose exit status is `rc` (SIGINT or SIGTERM: the run
 /// finished its step, wrote its checkpoint and exited 130 or 143; or it was not started), or 0.

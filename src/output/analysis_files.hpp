@@ -1,6 +1,9 @@
 // The files `biodem analyze` writes next to a series (docs/outputs.md): a fresh `biodem run`
 // into the folder removes them, since they describe the series it replaces.
 #pragma once
+#include <string>
+
+#include "analysis/flowability.hpp"
 
 namespace biodem::output {
 
@@ -8,5 +11,12 @@ inline constexpr const char* kAnalysisTables[] = {"events.csv", "descriptors.csv
 /// Plot stems; each is written as STEM.png and STEM.svg.
 inline constexpr const char* kAnalysisPlots[] = {"alpha_vs_revolution", "alpha_vs_revolution_zoom", "r2_vs_time",
                                                  "cdf_uas", "cdf_drop", "cdf_f", "cdf_r2"};
+
+/// analyze's events.csv (one row per event) and descriptors.csv (one row per descriptor:
+/// descriptor,count,mean,p10,p50,p90,span), each written whole through a temporary file and a
+/// rename (write_file_atomic): a reader, or an analysis killed mid-write, sees the old file or the
+/// complete new one. Shared by `biodem analyze` and the drum tests of `biodem calibrate`.
+void write_events_csv(const std::string& path, const analysis::FlowabilityResult& r);
+void write_descriptors_csv(const std::string& path, const analysis::FlowabilityResult& r);
 
 }  // namespace biodem::output

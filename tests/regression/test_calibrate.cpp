@@ -4,6 +4,8 @@
 // and a 100-bead shear box, ~20-40 s per campaign. Rows are compared without wall_s (a timing).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -174,4 +176,72 @@ TEST(Calibrate, ShippedCampaignFilesAreValid) {
       ADD_FAILURE() << f << ": " << e.what();
     }
   }
+  try {  // the drum test that narrows the quick twin's Pareto set
+    const biodem::calib::CalibConfig c = biodem::calib::load_calib(dir + "quick/drum_narrow.toml");
+    ASSERT_EQ(c.tests.size(), 1u);
+    EXPECT_TRUE(c.tests[0].drum.has_value());
+    EXPECT_EQ(c.targets.size(), 2u);
+    EXPECT_EQ(c.parameters.size(), 3u);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "quick/drum_narrow.toml: " << e.what();
+  }
+}
+
+// Narrowing a Pareto set with the drum (SPEC 7; docs/calibration.md "Drum tests"): `calibrate
+// --evaluate FILE` runs the drum test for each row of FILE (here two points of a bulk-test
+// Pareto set) and scores them from the drum's descriptors; --resume runs nothing again; a bad
+// FILE is a one-line error before any run. Two quick drums of ~2.6 s each.
+TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
+  const std::string d = fresh_dir("calib_drum_narrow");
+  fs::create_directories(d);
+  const std::string calib = source_dir() + "/cases/calibration/quick/drum_narrow.toml";
+  {
+    std::ofstream(d + "/pareto.csv") << "generation,index,mu_s,mu_r,ced_j_m3,angle_of_repose_deg,o1,o2,wall_s\n"
+                                        "4,8,0.777,0.319,11547.8,14.9,0.014,0.011,0.88\n"
+                                        "4,4,0.900,0.827,9303.5,15.4,0.033,0,0.80\n";
+  }
+  const std::string out = d + "/narrow";
+  const auto r = run_command(biodem_exe() + " calibrate " + calib + " --out " + out + " --jobs 2 --evaluate " + d + "/pareto.csv");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto ev = read_csv(out + "/evaluations.csv");
+  ASSERT_EQ(ev.at("index").size(), 2u);
+  EXPECT_EQ(ev.at("mu_s")[0], "0.77700000000000002");
+  EXPECT_EQ(ev.at("mu_r")[1], "0.82699999999999996");
+  // o1 and o2: the relative errors of the drum's median UAS and median r2 to the file's targets.
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double uas = std::stod(ev.at("uas_deg_p50")[k]), r2 = std::stod(ev.at("surface_r2_p50")[k]);
+    EXPECT_GT(uas, 95.0) << k;  // a bed that turned with the drum before its avalanches
+    EXPECT_LT(uas, 200.0) << k;
+    EXPECT_GT(r2, 0.0) << k;
+    EXPECT_LE(r2, 1.0) << k;
+    EXPECT_NEAR(std::stod(ev.at("o1")[k]), std::abs(uas - 154.922657) / 154.922657, 1e-12) << k;
+    EXPECT_NEAR(std::stod(ev.at("o2")[k]), std::abs(r2 - 0.9018358713) / 0.9018358713, 1e-12) << k;
+    const std::string run = out + "/runs/g0/e" + std::to_string(k) + "/drum/out/";
+    for (const char* f : {"series.csv", "events.csv", "descriptors.csv", "responses.csv"})
+      EXPECT_TRUE(fs::exists(run + f)) << run + f;
+    const auto resp = read_csv(run + "responses.csv");
+    const auto& names = resp.at("response");
+    const auto at = std::find(names.begin(), names.end(), "uas_deg_p50");
+    ASSERT_NE(at, names.end());
+    EXPECT_NEAR(std::stod(resp.at("value")[static_cast<std::size_t>(at - names.begin())]), uas, 1e-9 * uas);
+  }
+  EXPECT_GE(lines(out + "/pareto.csv"), 2u);
+  EXPECT_TRUE(fs::exists(out + "/pareto.png"));
+  EXPECT_NE(slurp(out + "/campaign.log").find("evaluating the 2 parameter vectors of"), std::string::npos);
+
+  // --resume of the finished folder: both from the cache, the same file.
+  const std::string before = without_wall(out + "/evaluations.csv");
+  const auto again = run_command(biodem_exe() + " calibrate " + calib + " --out " + out + " --resume --evaluate " + d + "/pareto.csv");
+  ASSERT_EQ(again.status, 0) << again.output;
+  EXPECT_NE(slurp(out + "/campaign.log").find("evaluated 2 vectors (0 run now)"), std::string::npos);
+  EXPECT_EQ(without_wall(out + "/evaluations.csv"), before);
+
+  // A row outside the CALIB file's bounds: one line naming the file, line and column; nothing runs.
+  { std::ofstream(d + "/bad.csv") << "mu_s,mu_r,ced_j_m3\n0.5,0.5,1000\n0.5,0.5,90000\n"; }
+  const auto bad = run_command(biodem_exe() + " calibrate " + calib + " --out " + d + "/bad --evaluate " + d + "/bad.csv");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("bad.csv line 3, column ced_j_m3 = 90000: outside the parameter's bounds"), std::string::npos)
+      << bad.output;
+  EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
+  EXPECT_FALSE(fs::exists(d + "/bad/runs"));
 }
