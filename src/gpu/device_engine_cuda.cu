@@ -543,7 +543,11 @@ struct System {
   template <class F>
   static void launch(std::uint32_t n, const F& f) {
     const std::uint32_t block = launch_block();
-    for_each_index<<<(n + block - 1) / block, block, 0, engine_stream()>>>(n, f);
+    // (blocks in 64 bits: n + block - 1 wraps in 32 for n near 2^32; thread indices are 32-bit)
+    const std::uint64_t blocks = (static_cast<std::uint64_t>(n) + block - 1) / block;
+    if (blocks * block > 0xffffffffull)
+      throw Error("GPU engine: a kernel over " + std::to_string(n) + " items exceeds 2^32 threads (32-bit indices)");
+    for_each_index<<<static_cast<std::uint32_t>(blocks), block, 0, engine_stream()>>>(n, f);
     check_cuda("a kernel launch");
   }
   /// Row walks (kernels.hpp, walk_row) over n items: a group of row lanes per item
@@ -557,7 +561,7 @@ struct System {
     }
     const std::uint32_t block = launch_block();  // (at least 32: a multiple of the lanes)
     const std::uint64_t threads = static_cast<std::uint64_t>(n) << log2;
-    if (threads > 0xffffffffull)  // (thread indices are 32-bit)
+    if (threads + block - 1 > 0xffffffffull)  // (thread indices are 32-bit, the grid rounded up included)
       throw Error("GPU engine: " + std::to_string(n) + " row walks of " + std::to_string(1u << log2) +
                   " lanes exceed 2^32 threads; set BIODEM_GPU_ROW_LANES lower");
     for_each_walk<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, 0, engine_stream()>>>(n, w, log2);
@@ -578,7 +582,7 @@ struct System {
     if (groups == 0) groups = 1;
     const std::uint32_t block = groups * lanes;
     const std::uint64_t threads = static_cast<std::uint64_t>(n) << log2;
-    if (threads > 0xffffffffull)
+    if (threads + block - 1 > 0xffffffffull)
       throw Error("GPU engine: " + std::to_string(n) + " row builds of " + std::to_string(lanes) +
                   " lanes exceed 2^32 threads; set BIODEM_GPU_BUILD_LANES lower");
     for_each_row_build<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, groups * bytes,

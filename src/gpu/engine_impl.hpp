@@ -846,8 +846,10 @@ inline void Engine::build_list(const Box* known_box) {
   launch(n, PackByCell{sphere_arrays(), raw<std::uint32_t>(sorted_), raw<Int3>(wrap_), packed});
 
   // The current rows become the old rows; build new ones, enlarging them until every row fits.
+  // The capacity starts at the wider of the two sets: after a widening the set swapped in is the
+  // one of two builds ago, and starting at its capacity would overflow (and widen) again.
   std::swap(rows_, old_rows_);
-  std::uint32_t cap = std::max<std::uint32_t>(rows_.cap, 16);
+  std::uint32_t cap = std::max({rows_.cap, old_rows_.cap, std::uint32_t{16}});
   bool grouped = false;  // the rows kept were built by BuildRowsGrouped
   for (;;) {
     if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
