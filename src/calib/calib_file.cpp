@@ -335,13 +335,14 @@ class CalibParser {
         try {
           const auto loaded = case_file::parse_case(apply_parameters(c_, t, x), t.case_path);
           rotates = std::any_of(loaded.config.phases.begin(), loaded.config.phases.end(),
-                                [](const config::Phase& ph) { return ph.rotate; });
+                                [](const config::Phase& ph) { return ph.rotate; }) &&
+                    loaded.config.drum && loaded.config.drum->rpm != 0.0;
         } catch (const Error& e) {
           fail("[[test]] \"" + t.name + "\" with the parameters at their " + (end ? "upper" : "lower") +
                " bounds: " + e.what());
         }
         if (t.drum && !rotates)
-          fail("[[test]] \"" + t.name + "\": a drum test needs a [[phase]] with rotate = true (its events are of the turning drum)");
+          fail("[[test]] \"" + t.name + "\": a drum test needs a [[phase]] with rotate = true and a [drum].rpm other than 0 (its events are of the turning drum)");
       }
     }
   }

@@ -1,6 +1,8 @@
 #include "calib/campaign.hpp"
 
 #include <chrono>
+#include <cstdint>
+#include <cstdio>
 #include <csignal>
 #include <cmath>
 #include <filesystem>
@@ -21,6 +23,35 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// What a campaign folder was made by (DIR/campaign.id): the mode (a search, or --evaluate) and a
+// fingerprint (FNV-1a, 64 bits) of everything that decides an evaluation's responses and
+// objectives: the tests' case texts and drum analysis options, the targets, the objectives and
+// the parameters (and, for a search, population, generations and seed). --resume with another
+// mode or file would take cached evaluations for ones of this file, or overwrite the other
+// mode's results, so it is refused.
+std::string campaign_id(const CalibConfig& c, bool evaluate) {
+  std::ostringstream t;
+  t.precision(17);
+  for (const auto& test : c.tests) t << "test " << test.name << '\n' << test.case_text << '\n' << encode_drum_line(test.drum) << '\n';
+  for (const auto& g : c.targets) t << "target " << g.response << ' ' << g.value << ' ' << g.unit << '\n';
+  for (const auto* o : {&c.o1, &c.o2}) {
+    t << "objective";
+    for (std::size_t k = 0; k < o->responses.size(); ++k) t << ' ' << o->responses[k] << ' ' << o->weights[k];
+    t << '\n';
+  }
+  for (const auto& p : c.parameters) {
+    t << "parameter " << p.name << ' ' << p.lower << ' ' << p.upper;
+    for (const auto& k : p.keys) t << ' ' << k.path << ' ' << k.factor;
+    t << '\n';
+  }
+  if (!evaluate) t << "search " << c.population << ' ' << c.generations << ' ' << c.seed << '\n';
+  std::uint64_t h = 14695981039346656037ull;
+  for (const unsigned char ch : t.str()) h = (h ^ ch) * 1099511628211ull;
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return std::string(evaluate ? "evaluate " : "search ") + hex;
+}
+
 class Campaign {
  public:
   Campaign(const CalibConfig& c, const CampaignOptions& o, const MpiJob* mpi) : c_(c), o_(o), mpi_(mpi) {
@@ -39,13 +70,29 @@ class Campaign {
     const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
     const auto names = response_names(c_);
     std::map<std::vector<double>, Evaluation> cache;
+    const std::string id_file = out + "/campaign.id", id = campaign_id(c_, !given.empty());
     if (o_.resume) {
       if (!fs::exists(cache_csv)) throw Error("--resume: " + cache_csv + " does not exist (nothing to resume)");
+      std::string was;  // (a folder of a build before campaign.id: a search of the same file is assumed)
+      if (std::ifstream f(id_file); f) std::getline(f, was);
+      if (!was.empty() && was.substr(0, was.find(' ')) != id.substr(0, id.find(' ')))
+        throw Error("--resume: " + out + " holds " +
+                    (was.rfind("search", 0) == 0 ? std::string("a search (NSGA-II) campaign; --evaluate")
+                                                 : std::string("an --evaluate campaign; a search")) +
+                    " needs another folder");
+      if (!was.empty() && was != id)
+        throw Error("--resume: " + out + " holds a campaign of another CALIB file (its tests, drum options, targets, "
+                    "objectives, parameters or search settings differ from " + c_.source_path +
+                    "): its cached evaluations are not this file's; use another folder");
       for (auto& e : read_evaluations(cache_csv, c_.parameters.size(), names.size())) cache[e.x] = e;
     } else if (fs::exists(eval_csv) || fs::exists(cache_csv)) {
       throw Error("--out " + out + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
     }
     fs::create_directories(out + "/runs");
+    if (!o_.resume || !fs::exists(id_file)) {
+      std::ofstream f(id_file, std::ios::trunc);
+      f << id << "\n";
+    }
     log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
     log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; ";
     if (given.empty())
@@ -120,8 +167,8 @@ class Campaign {
         TestJob j;
         j.evaluation = e;
         j.test = t;
-        j.dir = o_.out_dir + "/runs/g" + std::to_string(batch[e].generation) + "/e" + std::to_string(batch[e].index) +
-                "/" + c_.tests[t].name;
+        j.dir = o_.out_dir + (o_.evaluate_csv.empty() ? "/runs/g" + std::to_string(batch[e].generation) : std::string("/runs/evaluate")) +
+                "/e" + std::to_string(batch[e].index) + "/" + c_.tests[t].name;
         j.case_text = apply_parameters(c_, c_.tests[t], batch[e].x);
         j.drum = c_.tests[t].drum;
         j.x = batch[e].x;
@@ -161,7 +208,7 @@ class Campaign {
                               std::to_string(batch[j.evaluation].index) + " " + c_.tests[j.test].name + ": ";
       for (const auto& w : r.warnings) {
         const bool analysis = w.rfind("WARNING: drum test:", 0) == 0;  // (measure_drum's, not the run's)
-        log_ << who << w << " (" << j.dir << (analysis ? "/out/events.csv" : "/out/run.log") << ")\n";
+        log_ << who << w << " (" << j.dir << (analysis ? "/out/series.csv" : "/out/run.log") << ")\n";
         ++warned_runs_;
       }
       if (const auto h = r.responses.find("heap_found"); h != r.responses.end() && h->second == 0.0) {
@@ -230,7 +277,14 @@ class Campaign {
     std::cerr << "calibrate: " << all.size() << " vectors evaluated\n";
     CampaignResult r;
     r.evaluations = all;
-    r.pareto = pareto_front(all);
+    std::vector<Evaluation> scored;  // failed rows (1e9) are no candidates of the narrowed set
+    for (const auto& e : all)
+      if (e.o1 < 1e9 && e.o2 < 1e9) scored.push_back(e);
+    r.pareto = pareto_front(scored);
+    if (scored.empty()) {
+      log_ << "no row was scored (every evaluation failed): pareto.csv is empty\n";
+      std::cerr << "calibrate: no row was scored (every evaluation failed; see campaign.log)\n";
+    }
     return r;
   }
 

@@ -66,6 +66,7 @@ DrumMeasurement measure_drum(const std::string& out_dir, const DrumAnalysis& a) 
   analysis::FlowabilityResult r;
   try {
     const output::SeriesFile file = output::read_series_csv(out_dir + "/series.csv");
+    for (const auto& w : file.warnings) m.warnings.push_back("WARNING: drum test: " + w);
     analysis::FlowabilityOptions fo;
     if (a.min_drop_deg) fo.events.min_drop_deg = *a.min_drop_deg;
     fo.skip_s = a.skip_s;
@@ -75,15 +76,12 @@ DrumMeasurement measure_drum(const std::string& out_dir, const DrumAnalysis& a) 
     m.warnings.push_back(std::string("WARNING: drum test: the series cannot be analysed: ") + e.what());
     return m;
   }
-  output::write_events_csv(out_dir + "/events.csv", r);
-  output::write_descriptors_csv(out_dir + "/descriptors.csv", r);
   const auto table = analysis::descriptor_table();
   std::ostringstream csv;
   csv << "response,value,unit\n";
+  std::string empty;  // descriptors without values
   for (std::size_t d = 0; d < table.size(); ++d) {
-    if (r.distributions[d].count == 0)
-      m.warnings.push_back(std::string("WARNING: drum test: no values of ") + table[d].name + " (" +
-                           std::to_string(r.detection.events.size()) + " events): its responses are empty");
+    if (r.distributions[d].count == 0) empty += std::string(empty.empty() ? "" : ", ") + table[d].name;
     for (int k = 0; k < 5; ++k) {
       const std::string name = std::string(table[d].name) + "_" + kStatistics[k];
       const double v = r.distributions[d].count ? statistic(r.distributions[d], k) : NAN;
@@ -94,8 +92,19 @@ DrumMeasurement measure_drum(const std::string& out_dir, const DrumAnalysis& a) 
   }
   m.responses["event_count"] = static_cast<double>(r.detection.events.size());
   csv << "event_count," << r.detection.events.size() << ",-\n";
-  for (const auto& w : r.warnings) m.warnings.push_back("WARNING: drum test: " + w);
-  output::write_file_atomic(out_dir + "/responses.csv", csv.str());
+  if (!empty.empty())
+    m.warnings.push_back("WARNING: drum test: no values of " + empty + " (" + std::to_string(r.detection.events.size()) +
+                         " events): their responses are empty");
+  else
+    for (const auto& w : r.warnings) m.warnings.push_back("WARNING: drum test: " + w);
+  // The files beside the series; a failed write is a warning (the responses are measured).
+  try {
+    output::write_events_csv(out_dir + "/events.csv", r);
+    output::write_descriptors_csv(out_dir + "/descriptors.csv", r);
+    output::write_file_atomic(out_dir + "/responses.csv", csv.str());
+  } catch (const std::exception& e) {
+    m.warnings.push_back(std::string("WARNING: drum test: the analysis files were not written: ") + e.what());
+  }
   return m;
 }
 

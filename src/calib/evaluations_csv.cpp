@@ -17,17 +17,28 @@ std::string g17(double v) {
   return b;
 }
 
+// The cells of a line of a CSV file written by hand or by a spreadsheet: spaces and a carriage
+// return trimmed, surrounding double quotes removed (no commas inside quotes).
 std::vector<std::string> fields(const std::string& line) {
   std::vector<std::string> f;
   std::stringstream ss(line);
   std::string c;
+  auto trim = [](std::string& x) {
+    while (!x.empty() && (x.back() == '\r' || x.back() == ' ' || x.back() == '\t')) x.pop_back();
+    while (!x.empty() && (x.front() == ' ' || x.front() == '\t')) x.erase(x.begin());
+    if (x.size() >= 2 && x.front() == '"' && x.back() == '"') x = x.substr(1, x.size() - 2);
+  };
   while (std::getline(ss, c, ',')) {
-    while (!c.empty() && (c.back() == '\r' || c.back() == ' ')) c.pop_back();
-    while (!c.empty() && c.front() == ' ') c.erase(c.begin());
+    trim(c);
     f.push_back(c);
   }
   if (!line.empty() && line.back() == ',') f.emplace_back();
   return f;
+}
+
+bool blank_or_comment(const std::string& line) {
+  const auto k = line.find_first_not_of(" \t\r");
+  return k == std::string::npos || line[k] == '#';
 }
 
 }  // namespace
@@ -80,19 +91,27 @@ std::vector<std::vector<double>> read_parameter_rows(const std::string& path, co
   std::ifstream in(path);
   if (!in) throw Error("--evaluate " + path + ": cannot read");
   std::string line;
-  if (!std::getline(in, line)) throw Error("--evaluate " + path + ": empty file (a header row naming the parameters is needed)");
+  std::size_t n = 1;
+  while (std::getline(in, line) && blank_or_comment(line)) ++n;
+  if (!in) throw Error("--evaluate " + path + ": empty file (a header row naming the parameters is needed)");
+  if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte order mark
   const auto header = fields(line);
   std::vector<std::size_t> column;
   for (const auto& p : c.parameters) {
     std::size_t k = 0;
     while (k < header.size() && header[k] != p.name) ++k;
-    if (k == header.size())
-      throw Error("--evaluate " + path + ": no column \"" + p.name + "\" (a parameter of " + c.source_path + ")");
+    if (k == header.size()) {
+      std::string found;
+      for (const auto& h : header) found += (found.empty() ? "" : ",") + h;
+      throw Error("--evaluate " + path + ": no column \"" + p.name + "\" (a parameter of " + c.source_path +
+                  ") in the header \"" + found + "\" (line " + std::to_string(n) + ")");
+    }
     column.push_back(k);
   }
   std::vector<std::vector<double>> rows;
-  for (std::size_t n = 2; std::getline(in, line); ++n) {
-    if (line.empty() || line == "\r") continue;
+  while (std::getline(in, line)) {
+    ++n;
+    if (blank_or_comment(line)) continue;
     const auto f = fields(line);
     std::vector<double> x;
     for (std::size_t k = 0; k < column.size(); ++k) {

@@ -29,7 +29,7 @@ std::vector<TestRun> run_on_threads(const std::vector<TestJob>& jobs, int thread
 #ifdef BIODEM_HAVE_MPI
 namespace {
 
-// Tags; job message: "<job id>\n<dir>\n<case text>"; result: "<job id> <rc> <wall_s>\n<name>,<value>\n...",
+// Tags; job message: "<job id>\n<dir>\n<drum line (encode_drum_line)>\n<case text>"; result: "<job id> <rc> <wall_s>\n<name>,<value>\n...",
 // then one "!<warning>\n" per warning of the run's log.
 constexpr int kTagJob = 1, kTagResult = 2, kTagStop = 3;
 

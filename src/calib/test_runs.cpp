@@ -178,9 +178,13 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   if (drum) {
     // The drum's descriptors from its series, once the run has finished (rc 0 or re-used).
     if (r.rc == 0) {
-      DrumMeasurement m = measure_drum(dir + "/out", *drum);
-      r.responses = std::move(m.responses);
-      r.warnings = std::move(m.warnings);
+      try {  // (on a worker thread or an MPI rank: nothing may escape)
+        DrumMeasurement m = measure_drum(dir + "/out", *drum);
+        r.responses = std::move(m.responses);
+        r.warnings = std::move(m.warnings);
+      } catch (const std::exception& e) {
+        r.warnings.push_back(std::string("WARNING: drum test: the series cannot be analysed: ") + e.what());
+      }
     }
   } else {
     std::ifstream in(dir + "/out/responses.csv");

@@ -216,7 +216,7 @@ TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
     EXPECT_LE(r2, 1.0) << k;
     EXPECT_NEAR(std::stod(ev.at("o1")[k]), std::abs(uas - 154.922657) / 154.922657, 1e-12) << k;
     EXPECT_NEAR(std::stod(ev.at("o2")[k]), std::abs(r2 - 0.9018358713) / 0.9018358713, 1e-12) << k;
-    const std::string run = out + "/runs/g0/e" + std::to_string(k) + "/drum/out/";
+    const std::string run = out + "/runs/evaluate/e" + std::to_string(k) + "/drum/out/";
     for (const char* f : {"series.csv", "events.csv", "descriptors.csv", "responses.csv"})
       EXPECT_TRUE(fs::exists(run + f)) << run + f;
     const auto resp = read_csv(run + "responses.csv");
@@ -225,7 +225,25 @@ TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
     ASSERT_NE(at, names.end());
     EXPECT_NEAR(std::stod(resp.at("value")[static_cast<std::size_t>(at - names.begin())]), uas, 1e-9 * uas);
   }
-  EXPECT_GE(lines(out + "/pareto.csv"), 2u);
+  // The responses are `biodem analyze`'s: its descriptors.csv of the same series, byte for byte.
+  const std::string copy = d + "/analyze_copy";
+  fs::create_directories(copy);
+  fs::copy_file(out + "/runs/evaluate/e0/drum/out/series.csv", copy + "/series.csv");
+  const auto an = run_command(biodem_exe() + " analyze " + copy + " --no-plots");
+  ASSERT_EQ(an.status, 0) << an.output;
+  EXPECT_EQ(slurp(copy + "/descriptors.csv"), slurp(out + "/runs/evaluate/e0/drum/out/descriptors.csv"));
+  EXPECT_EQ(slurp(copy + "/events.csv"), slurp(out + "/runs/evaluate/e0/drum/out/events.csv"));
+  // pareto.csv: rows of evaluations.csv, at least one.
+  const std::string evals = slurp(out + "/evaluations.csv");
+  std::ifstream pin(out + "/pareto.csv");
+  std::string prow;
+  std::getline(pin, prow);
+  std::size_t pareto_rows = 0;
+  while (std::getline(pin, prow)) {
+    ++pareto_rows;
+    EXPECT_NE(evals.find(prow), std::string::npos) << prow;
+  }
+  EXPECT_GE(pareto_rows, 1u);
   EXPECT_TRUE(fs::exists(out + "/pareto.png"));
   EXPECT_NE(slurp(out + "/campaign.log").find("evaluating the 2 parameter vectors of"), std::string::npos);
 
@@ -234,6 +252,13 @@ TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
   const auto again = run_command(biodem_exe() + " calibrate " + calib + " --out " + out + " --resume --evaluate " + d + "/pareto.csv");
   ASSERT_EQ(again.status, 0) << again.output;
   EXPECT_NE(slurp(out + "/campaign.log").find("evaluated 2 vectors (0 run now)"), std::string::npos);
+  EXPECT_EQ(without_wall(out + "/evaluations.csv"), before);
+
+  // --resume across modes is refused: a search into this --evaluate folder, and --evaluate into a
+  // search folder (they would take each other's cached evaluations and overwrite the results).
+  const auto mixed = run_command(biodem_exe() + " calibrate " + calib + " --out " + out + " --resume");
+  EXPECT_NE(mixed.status, 0);
+  EXPECT_NE(mixed.output.find("holds an --evaluate campaign; a search needs another folder"), std::string::npos) << mixed.output;
   EXPECT_EQ(without_wall(out + "/evaluations.csv"), before);
 
   // A row outside the CALIB file's bounds: one line naming the file, line and column; nothing runs.

@@ -182,6 +182,43 @@ TEST(CalibCampaign, FilesDoNotDependOnJobsAndResumeReusesTheCache) {
   // Without --resume a folder with a campaign is refused; --resume needs a cache.
   EXPECT_THROW(run(c, a, 1, false), Error);
   EXPECT_THROW(run(c, fresh_dir("calib_model_empty"), 1, true), Error);
+
+  // --resume with another CALIB (a target changed: the cached o1 would be of the old one) or in
+  // the other mode (--evaluate into this search folder) is refused, and nothing is overwritten.
+  const std::string evals_before = slurp(a + "/evaluations.csv");
+  auto changed = c;
+  changed.targets[0].value = 30.0;
+  try {
+    run(changed, a, 1, true);
+    ADD_FAILURE() << "a resume with another target was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("holds a campaign of another CALIB file"), std::string::npos) << e.what();
+  }
+  { std::ofstream(a + "/rows.csv") << "mu_s,mu_r,ced_j_m3\n0.5,0.5,1000\n"; }
+  calib::CampaignOptions o;
+  o.out_dir = a;
+  o.resume = true;
+  o.evaluate_csv = a + "/rows.csv";
+  o.runner = [](const calib::TestJob& j) { return model(j, nullptr); };
+  try {
+    calib::run_campaign(c, o);
+    ADD_FAILURE() << "--evaluate into a search folder was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("holds a search (NSGA-II) campaign; --evaluate needs another folder"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(slurp(a + "/evaluations.csv"), evals_before);
+  // --evaluate in its own folder: the model's responses for the row, generation 0, index 0.
+  o.out_dir = fresh_dir("calib_model_evaluate");
+  o.resume = false;
+  const auto se = calib::run_campaign(c, o);
+  EXPECT_EQ(se.evaluations, 1u);
+  const auto one = calib::read_evaluations(o.out_dir + "/evaluations.csv", 3, 2);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_DOUBLE_EQ(one[0].responses[0], 10.0 + 30.0 * 0.5 + 10.0 * 0.5);
+  EXPECT_EQ(one[0].generation, 0u);
+  EXPECT_EQ(one[0].index, 0u);
 }
 
 TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {

@@ -150,7 +150,9 @@ TEST(CalibDrum, ResponsesAreTheDescriptorsOfTheSeries) {
   EXPECT_TRUE(std::isnan(none.responses.at("uas_deg_p50")));
   EXPECT_NEAR(none.responses.at("surface_r2_p50"), 0.95, 1e-12);
   ASSERT_FALSE(none.warnings.empty());
-  EXPECT_NE(none.warnings.front().find("no values of uas_deg (0 events)"), std::string::npos) << none.warnings.front();
+  EXPECT_NE(none.warnings.front().find("no values of uas_deg, drop_deg, f_percent (0 events)"), std::string::npos)
+      << none.warnings.front();
+  EXPECT_EQ(none.warnings.size(), 1u);  // one line for the run, not one per descriptor
 
   // A folder without a series: no responses, a warning that says why.
   const calib::DrumMeasurement missing = calib::measure_drum(d + "/nothing", calib::DrumAnalysis{});
@@ -195,6 +197,12 @@ TEST(CalibDrum, CalibFileWithADrumTest) {
   still.replace(still.find("revolutions = 0.1\nrotate = true"), 31, "duration_s = 0.01\nrotate = false");
   EXPECT_NE(load_error(calib_dir("still", still, drum_calib("", kDrumTargets))).find("a drum test needs a [[phase]] with rotate = true"),
             std::string::npos);
+  std::string halted = kDrumCase;  // a turning phase of a drum at 0 rpm
+  halted.replace(halted.find("rpm = 15.0"), 10, "rpm = 0.0");
+  halted.replace(halted.find("revolutions = 0.1"), 17, "duration_s = 0.01");
+  EXPECT_NE(load_error(calib_dir("halted", halted, drum_calib("", kDrumTargets))).find("a [drum].rpm other than 0"),
+            std::string::npos)
+      << load_error(calib_dir("halted", halted, drum_calib("", kDrumTargets)));
   // A response no test measures, and an analysis option on a bulk test.
   const std::string heap_calib =
       "[[test]]\nname = \"heap\"\ncase = \"heap.toml\"\nbase = \"base.toml\"\nmin_drop_deg = 0.3\n"
@@ -239,4 +247,12 @@ TEST(CalibDrum, EvaluateFileRowsAndItsErrors) {
   EXPECT_NE(error("mu_s,mu_r\n").find("no rows to evaluate"), std::string::npos);
   EXPECT_NE(error("mu_s,mu_r\n0.5\n").find("line 2, column mu_r: missing"), std::string::npos);
   EXPECT_NE(error("").find("empty file"), std::string::npos);
+  // As a spreadsheet writes it: a byte order mark, quoted cells, CRLF, blank and comment lines.
+  const auto sheet = calib::read_parameter_rows(
+      write(d, "sheet.csv", "\xEF\xBB\xBF\"mu_s\",\"mu_r\"\r\n# from the bulk campaign\r\n\"0.5\",0.25\r\n\r\n 0.6 , 0.35 \r\n"), c);
+  ASSERT_EQ(sheet.size(), 2u);
+  EXPECT_EQ(sheet[0], (std::vector<double>{0.5, 0.25}));
+  EXPECT_EQ(sheet[1], (std::vector<double>{0.6, 0.35}));
+  EXPECT_NE(error("mu_s;mu_r\n0.5;0.5\n").find("in the header \"mu_s;mu_r\" (line 1)"), std::string::npos)
+      << error("mu_s;mu_r\n0.5;0.5\n");
 }
