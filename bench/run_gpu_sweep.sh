@@ -65,20 +65,20 @@ done
 # ncu's sections (speed of light, occupancy, launch, warp states, scheduler, memory and compute
 # workload) of four step kernels of the timed rotation phase, with the caches as the run leaves
 # them (--cache-control none): glass_small with the entry kernels, raw with the row walk by one
-# thread per sphere and lazy loads. The launches are counted among those kernels only.
+# thread per sphere. The kernels are named by their demangled names (all launch for_each_index). The launches are counted among those kernels only.
 if [ "${NCU_DETAIL:-0}" = 1 ] && [ -x "$ncu_bin" ]; then
   run_detail() {  # case launches-to-skip label VAR=value...
     local c=$1 skipn=$2 label=$3
     shift 3
     env "$@" BIODEM_GPU_GRAPH=0 timeout 100 "$ncu_bin" --clock-control none --cache-control none \
-      --kernel-name 'regex:PairEntries|SumEntries|Forces|ReduceKickDrift' --launch-skip "$skipn" --launch-count 4 \
+      --kernel-name-base demangled --kernel-name 'regex:PairEntries|SumEntries|Forces|ReduceKickDrift' --launch-skip "$skipn" --launch-count 4 \
       --section SpeedOfLight --section Occupancy --section LaunchStats --section WarpStateStats \
       --section SchedulerStats --section MemoryWorkloadAnalysis --section ComputeWorkloadAnalysis \
       "$BIODEM" run "$here/cases/${c}_bench.toml" --out "$OUT/ncud_$label" --device gpu > "$OUT/ncu_detail_$label.txt" 2>&1
     echo "ncu detail $label: status $?"
   }
   run_detail glass_small 24000 glass_small_entries BIODEM_GPU_FORCES=entries
-  run_detail raw 61000 raw_walk1_lazy BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_LOADS=lazy
+  run_detail raw 61000 raw_walk1 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1
 fi
 
 # ------------------------------------------------------------------------ 2. the sweep

@@ -47,7 +47,8 @@
 #   GPU_CHECK_OUT        output folder (default out/gpu_check); the report is OUT/report.md
 #   GPU_CHECK_SKIP_CTEST 1: skip check 1 (when this script itself runs inside ctest)
 #   GPU_CHECK_SANITIZER_JOBS  the sanitizer runs of check 2 as tool:kernels (kernels: auto,
-#                        entries, lazy); default all seven, empty: none
+#                        entries, rows1: the row walk by one thread per sphere); default
+#                        the six of the table below, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
 #   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
@@ -263,21 +264,6 @@ if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sa -ne 0 ]; then
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries"); then
   lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2)"
 fi
-# Lazy loads of the pair entries (BIODEM_GPU_LOADS=lazy: only the centres and radii before the
-# cut-off test) in both kernel sets, and on a GPU in the row walk by one thread per sphere.
-if [ $lanes_ok = 1 ]; then
-  for forces in rows entries; do
-    BIODEM_GPU_LOADS=lazy BIODEM_GPU_FORCES=$forces run_biodem "needles_lazy_$forces" "$needles" "$OUT/needles_lazy_$forces" --device "$DEVICE" ||
-      { lanes_ok=0; lanes_detail="$lanes_detail; lazy loads, $forces: run failed"; continue; }
-    d=$(same_files "$OUT/needles_a" "$OUT/needles_lazy_$forces") ||
-      { lanes_ok=0; lanes_detail="$lanes_detail; lazy loads, $forces: differ: $(echo $d)"; }
-  done
-  if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
-    why=$(variant_same "$OUT/needles_rows" needles_lazy_lanes1 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_LOADS=lazy) ||
-      { lanes_ok=0; lanes_detail="$lanes_detail; lazy loads, 1 lane: $why"; }
-  fi
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; lazy loads (BIODEM_GPU_LOADS=lazy) byte-identical in both sets"
-fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 32; do
     for block in 32 512; do
@@ -414,12 +400,11 @@ if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
   # The 40k drum runs the row-walk contact kernel by default (BIODEM_GPU_FORCES=auto picks it
   # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
-  # Then memcheck on the row walk by one thread per sphere with lazy loads (BIODEM_GPU_LOADS).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:lazy}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries}; do
     tool=${job%:*} forces=${job#*:}
     case "$forces" in
       entries) what=", entry kernels"; envs=(BIODEM_GPU_FORCES=entries) ;;
-      lazy) what=", row walk in one thread, lazy loads"; envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_LOADS=lazy) ;;
+      rows1) what=", row walk in one thread per sphere"; envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool (40,200 spheres$what)"

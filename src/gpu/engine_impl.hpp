@@ -123,16 +123,6 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_CHECK_EVERY = '" + std::string(every) + "': expected a whole number of steps from 1 to 64");
       check_every_ = static_cast<std::uint32_t>(v);
     }
-    // BIODEM_GPU_LOADS=eager|lazy|auto: how the contact kernels load a pair entry's spheres
-    // (kernels.hpp, pair_entry): everything before the cut-off test, or only the centres and
-    // radii before it; auto: lazy in the row walk by one thread per sphere, eager elsewhere.
-    // The same bits either way.
-    if (const char* loads = std::getenv("BIODEM_GPU_LOADS"); loads && *loads) {
-      const std::string v(loads);
-      if (v != "eager" && v != "lazy" && v != "auto")
-        throw Error("BIODEM_GPU_LOADS = '" + v + "': expected eager, lazy or auto");
-      loads_ = v == "eager" ? Loads::eager : v == "lazy" ? Loads::lazy : Loads::automatic;
-    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -207,9 +197,7 @@ class Engine final : public DeviceEngine {
       std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
       return std::string(b);
     };
-    const bool lazy = use_entry_kernels() ? lazy_entries() : lazy_walk();
-    const std::string set = std::string(use_entry_kernels() ? "per-contact (PairEntries, SumEntries)" : "per-sphere row walk (Forces)") +
-                            (lazy ? " with lazy loads" : "");
+    const std::string set = use_entry_kernels() ? "per-contact (PairEntries, SumEntries)" : "per-sphere row walk (Forces)";
     switch (forces_mode_) {
       case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";
       case ForcesMode::rows: return set + ", set by BIODEM_GPU_FORCES=rows or a test";
@@ -504,11 +492,6 @@ class Engine final : public DeviceEngine {
   }
   /// The row walk in one thread per sphere instead of the row lanes (the timed choice only).
   bool walk_single() const { return timed_choice() && !use_entry_kernels() && tuned_set() == 2; }
-  /// Loads of a pair entry (BIODEM_GPU_LOADS; kernels.hpp, pair_entry).
-  enum class Loads { automatic, eager, lazy };
-  Loads loads_ = Loads::automatic;
-  bool lazy_entries() const { return loads_ == Loads::lazy; }
-  bool lazy_walk() const { return loads_ == Loads::lazy || (loads_ == Loads::automatic && walk_single()); }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
@@ -1000,11 +983,8 @@ inline void Engine::compute_forces(const std::uint32_t* halt) {
 template <bool Cohesion, bool Rolling>
 void Engine::launch_forces(const ContactArgs& c) {
   if (entries_ready()) {
-    if (lazy_entries()) launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling, true>{c});
-    else launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
+    launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
     launch(ns(), SumEntries<Cohesion, Rolling>{c});
-  } else if (lazy_walk()) {
-    launch_walks(ns(), Forces<Cohesion, Rolling, true>{c});
   } else {
     launch_walks(ns(), Forces<Cohesion, Rolling>{c});
   }
@@ -1040,17 +1020,12 @@ inline void Engine::fused_unit() {
 
 inline void Engine::launch_pair_entries(const ContactArgs& c) {
   const std::uint32_t n = (rows_.cap + n_walls_) * ns();
-  // (single-sphere scenes; PairEntries of any cohesion and rolling, eager or lazy loads)
-  const auto pass = [&]<bool Cohesion, bool Rolling>() {
-    if (lazy_entries()) launch(n, PairEntries<Cohesion, Rolling, true>{c});
-    else launch(n, PairEntries<Cohesion, Rolling>{c});
-  };
   if (cohesion_) {
-    if (rolling_) pass.template operator()<true, true>();
-    else pass.template operator()<true, false>();
+    if (rolling_) launch(n, PairEntries<true, true>{c});
+    else launch(n, PairEntries<true, false>{c});
   } else {
-    if (rolling_) pass.template operator()<false, true>();
-    else pass.template operator()<false, false>();
+    if (rolling_) launch(n, PairEntries<false, true>{c});
+    else launch(n, PairEntries<false, false>{c});
   }
 }
 

@@ -830,19 +830,15 @@ struct ContactArgs {
   /// side of its lower stable id, with that side's copy of the history in the entry. True when
   /// the spheres touch, with the force on the lower-id sphere (`force_low`), the torque on a
   /// (`torque_a`) and whether a is the lower-id sphere; false (history reset) otherwise.
-  template <bool Cohesion, bool Rolling, bool Lazy = false>
+  template <bool Cohesion, bool Rolling>
   BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
                             bool& a_low, Vec3* torque_b = nullptr) const {
-    // Eager (Lazy false): the loads in as few dependent rounds as the data allow (on a GPU each
-    // round is a wait for memory): the entry (neighbour, its stable id, the touching flag), then
-    // everything of the two spheres that the contact may need, with the history of a contact
-    // that was touching (the usual case of a touching pair), all before the cut-off test; the
-    // pair's parameters (a small table, cached) and a new contact's history after it. Lazy: only
-    // the centres and radii before the cut-off test, the rest after it, so that an entry that
-    // does not touch (a third of a row with the default skin) reads 56 bytes of the two spheres
-    // instead of 184: fewer bytes where the kernel is throughput-bound, one more round of loads
-    // where it is latency-bound (BIODEM_GPU_LOADS). Loads only: the arithmetic, its operands and
-    // its order are the same either way, so the same bits.
+    // The loads in as few dependent rounds as the data allow (on a GPU each round is a wait for
+    // memory): the entry (neighbour, its stable id, the touching flag), then everything of the
+    // two spheres that the contact may need, with the history of a contact that was touching
+    // (the usual case of a touching pair), all before the cut-off test; the pair's parameters
+    // (a small table, cached) and a new contact's history after it. Loads only: the arithmetic
+    // and its order are unchanged.
     const std::uint32_t b = rows.j[k];
     const std::uint32_t sid_b = rows.sid[k];
     const bool was_touching = rows.touching[k] != 0;
@@ -850,21 +846,11 @@ struct ContactArgs {
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
     const Vec3 pi = s.position[i], pj = s.position[j];
     const double ri = s.radius[i], rj = s.radius[j];
-    double mi = 0.0, mj = 0.0;
-    Vec3 vi, vj, wi, wj;
-    std::uint32_t mat_i = 0, mat_j = 0;
+    const double mi = s.body_mass[i], mj = s.body_mass[j];
+    const Vec3 vi = s.velocity[i], vj = s.velocity[j], wi = s.omega[i], wj = s.omega[j];
+    const std::uint32_t mat_i = s.material[i], mat_j = s.material[j];
     contact::ContactHistory h{};
-    if constexpr (!Lazy) {
-      mi = s.body_mass[i];
-      mj = s.body_mass[j];
-      vi = s.velocity[i];
-      vj = s.velocity[j];
-      wi = s.omega[i];
-      wj = s.omega[j];
-      mat_i = s.material[i];
-      mat_j = s.material[j];
-      if (was_touching) h = rows.history[k];
-    }
+    if (was_touching) h = rows.history[k];
     Vec3 d = pi - pj;
     if (periodic) {
       const std::int32_t c = rows.image[k];
@@ -882,19 +868,7 @@ struct ContactArgs {
       }
       return false;
     }
-    if constexpr (Lazy) {
-      mi = s.body_mass[i];
-      mj = s.body_mass[j];
-      vi = s.velocity[i];
-      vj = s.velocity[j];
-      wi = s.omega[i];
-      wj = s.omega[j];
-      mat_i = s.material[i];
-      mat_j = s.material[j];
-      h = rows.history[k];
-    } else if (!was_touching) {
-      h = rows.history[k];
-    }
+    if (!was_touching) h = rows.history[k];
     const contact::PairParams p = pairs[mat_i * n_materials + mat_j];
     const double dist = sqrt(dist2);
     const contact::ContactGeometry geo = contact::sphere_sphere_geometry(d, dist, ri, rj, mi, mj, vi, vj, wi, wj);
@@ -1021,7 +995,7 @@ struct ContactArgs {
 /// step's longest chain is one contact, not one row). The pair's history is advanced in the
 /// lower-id side's entry only; MirrorHistory copies it to the other side's entry when the whole
 /// rows are read (download, a switch to Forces).
-template <bool Cohesion, bool Rolling, bool Lazy = false>
+template <bool Cohesion, bool Rolling>
 struct PairEntries : ContactArgs {
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
@@ -1041,7 +1015,7 @@ struct PairEntries : ContactArgs {
     const std::uint32_t m = rows.mirror[k];
     Vec3 fl, ta, tb;
     bool a_low = true;
-    const bool touching = pair_entry<Cohesion, Rolling, Lazy>(a, sid_a, k, fl, ta, a_low, &tb);
+    const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
     rows.touching[m] = touching ? 1 : 0;
     if (touching) {
       rows.entry_force[k] = fl;
@@ -1124,7 +1098,7 @@ BIODEM_HD inline void walk_row_lanes(const W& w, std::uint32_t item, const Group
 /// pair's history in its entry, and the copies stay bit-identical. One thread per sphere walks
 /// the whole row, or (CUDA) a group of lanes per sphere evaluates the contacts at once and adds
 /// them in walk order (System::launch_walks, BIODEM_GPU_ROW_LANES).
-template <bool Cohesion, bool Rolling, bool Lazy = false>
+template <bool Cohesion, bool Rolling>
 struct Forces : ContactArgs {
   BIODEM_HD bool walk_begin(std::uint32_t a, WalkStart& st) const {
     if (halted(halt)) return false;
@@ -1138,8 +1112,7 @@ struct Forces : ContactArgs {
     RowContact r;
     if (v < st.len) {
       bool a_low = false;
-      if (pair_entry<Cohesion, Rolling, Lazy>(st.a, st.sid_a, v * n + st.a, r.force, r.torque, a_low))
-        r.kind = a_low ? 1 : 2;
+      if (pair_entry<Cohesion, Rolling>(st.a, st.sid_a, v * n + st.a, r.force, r.torque, a_low)) r.kind = a_low ? 1 : 2;
     } else if (v < st.total) {
       if (wall_entry<Cohesion, Rolling>(st.a, v - st.len, r.force, r.torque)) r.kind = 3;
     }
