@@ -310,7 +310,10 @@ class Engine final : public DeviceEngine {
   void run_units(std::uint32_t units);
   /// Reads the device's settle state into settle_host_ (one small copy; waits for the device).
   void poll_settle();
-  const std::uint32_t* halt() { return &raw<SettleState>(settle_)->settled; }
+  /// The step kernels' halt flag: the settle state's in a criterion phase; null outside one
+  /// (where it is never set: end_settle clears it), so that the step kernels do not load it
+  /// before their own first loads.
+  const std::uint32_t* halt() { return settle_active_ ? &raw<SettleState>(settle_)->settled : nullptr; }
   /// Forgets the CUDA graphs (their kernels' arguments changed: buffers, walls, criterion).
   void invalidate_graphs() { graphs_.clear(); }
   void check_finite();
@@ -593,7 +596,10 @@ inline void Engine::upload() {
     tuning_ = Tuning{};
     tuning_.uploads = choices;
   }
-  single_spheres_ = std::all_of(b.sphere_count.begin(), b.sphere_count.end(), [](std::uint32_t c) { return c == 1; });
+  // (SumEntriesKickDrift takes body k's sphere to be sphere k)
+  single_spheres_ = true;
+  for (std::size_t k = 0; k < b.size(); ++k)
+    if (b.sphere_count[k] != 1 || b.first_sphere[k] != k) single_spheres_ = false;
 
   const std::size_t n = s.size();
   // Stable sphere ids: spheres numbered body by body in stable body id order.

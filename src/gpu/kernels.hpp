@@ -826,6 +826,14 @@ struct ContactArgs {
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
 
+  /// What a force kernel reads of entry k first: the neighbour, its stable id and whether the
+  /// pair touched at the last evaluation.
+  struct EntryHead {
+    std::uint32_t b = 0, sid_b = 0;
+    bool was_touching = false;
+  };
+  BIODEM_HD EntryHead entry_head(std::uint32_t k) const { return EntryHead{rows.j[k], rows.sid[k], rows.touching[k] != 0}; }
+
   /// Entry k = q * n + a of sphere a's row (sid_a: a's stable id): the pair evaluated from the
   /// side of its lower stable id, with that side's copy of the history in the entry. True when
   /// the spheres touch, with the force on the lower-id sphere (`force_low`), the torque on a
@@ -833,15 +841,22 @@ struct ContactArgs {
   template <bool Cohesion, bool Rolling>
   BIODEM_HD bool pair_entry(std::uint32_t a, std::uint32_t sid_a, std::uint32_t k, Vec3& force_low, Vec3& torque_a,
                             bool& a_low, Vec3* torque_b = nullptr) const {
+    return pair_entry_from<Cohesion, Rolling>(entry_head(k), a, sid_a, k, force_low, torque_a, a_low, torque_b);
+  }
+  /// The same with entry k's head (entry_head) already loaded by the caller.
+  template <bool Cohesion, bool Rolling>
+  BIODEM_HD bool pair_entry_from(const EntryHead& e, std::uint32_t a, std::uint32_t sid_a, std::uint32_t k,
+                                 Vec3& force_low, Vec3& torque_a, bool& a_low, Vec3* torque_b = nullptr) const {
     // The loads in as few dependent rounds as the data allow (on a GPU each round is a wait for
-    // memory): the entry (neighbour, its stable id, the touching flag), then everything of the
-    // two spheres that the contact may need, with the history of a contact that was touching
-    // (the usual case of a touching pair), all before the cut-off test; the pair's parameters
-    // (a small table, cached) and a new contact's history after it. Loads only: the arithmetic
-    // and its order are unchanged.
-    const std::uint32_t b = rows.j[k];
-    const std::uint32_t sid_b = rows.sid[k];
-    const bool was_touching = rows.touching[k] != 0;
+    // memory): the entry's head (neighbour, its stable id, the touching flag; the callers load
+    // it together with their own first loads), then everything of the two spheres that the
+    // contact may need, with the history of a contact that was touching (the usual case of a
+    // touching pair), all before the cut-off test; the pair's parameters (a small table,
+    // cached) and a new contact's history after it. Loads only: the arithmetic and its order are
+    // unchanged.
+    const std::uint32_t b = e.b;
+    const std::uint32_t sid_b = e.sid_b;
+    const bool was_touching = e.was_touching;
     a_low = sid_a < sid_b;
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
     const Vec3 pi = s.position[i], pj = s.position[j];
@@ -901,18 +916,20 @@ struct ContactArgs {
   /// the row walk. The entries (and walls) are read in chunks of kChunk: every load of a chunk is
   /// issued before the first addition, so a GPU thread waits for memory once per chunk rather
   /// than once per entry. The additions stay in row order.
+  /// The first chunk is loaded whatever the row's length (entries below rows.cap are in the
+  /// arrays; those past the length are not added), so that its loads do not wait for the length.
   static constexpr std::uint32_t kChunk = 8;
   BIODEM_HD void sum_entries(std::uint32_t a, std::uint32_t sid_a, std::uint32_t len, Vec3& f, Vec3& t,
                              std::uint32_t& count) const {
-    for (std::uint32_t q0 = 0; q0 < len; q0 += kChunk) {
+    for (std::uint32_t q0 = 0; q0 == 0 || q0 < len; q0 += kChunk) {
       bool touching[kChunk], low[kChunk];
       Vec3 fe[kChunk], te[kChunk];
       for (std::uint32_t c = 0; c < kChunk; ++c) {
         const std::uint32_t q = q0 + c, k = q * n + a;
         touching[c] = false;
         low[c] = false;
-        if (q < len) {
-          touching[c] = rows.touching[k] != 0;
+        if (q < rows.cap) {
+          touching[c] = (rows.touching[k] != 0) & (q < len);
           low[c] = sid_a < rows.sid[k];
           fe[c] = rows.entry_force[k];
           te[c] = rows.entry_torque[k];
@@ -1009,13 +1026,16 @@ struct PairEntries : ContactArgs {
       }
       return;
     }
-    if (q >= rows.length[a]) return;
-    const std::uint32_t sid_a = s.sid[a];
-    if (!(sid_a < rows.sid[k])) return;  // the pair's higher-id side: written by the other entry
-    const std::uint32_t m = rows.mirror[k];
+    // Every load of the entry in one round (k < rows.cap * n: in the arrays, whatever the row's
+    // length; the values of an entry past it are not used): the row's length, the sphere's
+    // stable id, the entry's head and its mirror. Before, four dependent rounds.
+    const std::uint32_t len = rows.length[a], sid_a = s.sid[a], m = rows.mirror[k];
+    const EntryHead e = entry_head(k);
+    if (q >= len) return;
+    if (!(sid_a < e.sid_b)) return;  // the pair's higher-id side: written by the other entry
     Vec3 fl, ta, tb;
     bool a_low = true;
-    const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
+    const bool touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
     rows.touching[m] = touching ? 1 : 0;
     if (touching) {
       rows.entry_force[k] = fl;
@@ -1123,7 +1143,28 @@ struct Forces : ContactArgs {
     s.torque[st.a] = t;
     s.contacts[st.a] = count;
   }
-  BIODEM_HD void operator()(std::uint32_t a) const { walk_row(*this, a); }
+  /// The walk by one thread (on CUDA with BIODEM_GPU_ROW_LANES=1 or when timed fastest; on CPU
+  /// threads always): walk_row's contacts in walk order with the same operations, each entry's
+  /// head loaded one entry ahead (the first with the sphere's stable id and row length), so that
+  /// the thread waits for one round of loads per entry instead of two. The same bits as walk_row.
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    if (halted(halt)) return;
+    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
+    EntryHead next = entry_head(a);  // entry 0 (in the arrays whatever the row's length)
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    for (std::uint32_t v = 0; v < len; ++v) {
+      const EntryHead e = next;
+      if (v + 1 < len) next = entry_head((v + 1) * n + a);
+      RowContact r;
+      bool a_low = false;
+      if (pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * n + a, r.force, r.torque, a_low)) r.kind = a_low ? 1 : 2;
+      walk_add(r, f, t, count);
+    }
+    const WalkStart st{a, sid_a, len, len + n_walls};
+    for (std::uint32_t v = len; v < st.total; ++v) walk_add(walk_entry(st, v), f, t, count);
+    walk_end(a, st, f, t, count);
+  }
 };
 
 /// Sphere a's contact sums from the entry buffers of PairEntries (BIODEM_GPU_FORCES=entries):
@@ -1249,7 +1290,10 @@ struct SumEntriesKickDrift {
     // entries they cost registers the entry loads need: spills) but before the first store, and
     // the body sums take the sphere's sums from registers (before: the body's state loaded after
     // the sphere's sums were stored, and those sums then read back from memory).
-    const std::uint32_t a = rkd.b.first_sphere[k];
+    // Body k's sphere is sphere k: the engine launches this kernel only when every body has one
+    // sphere and body k's first sphere is k (checked at upload; a body sort keeps it, the first
+    // spheres being the running sum of the counts), so no load of first_sphere before the row's.
+    const std::uint32_t a = k;
     Vec3 fs, ts;
     std::uint32_t count = 0;
     c.sum_entries(a, c.s.sid[a], c.rows.length[a], fs, ts, count);
