@@ -78,6 +78,7 @@ if [ "${NCU_DETAIL:-0}" = 1 ] && [ -x "$ncu_bin" ]; then
     echo "ncu detail $label: status $?"
   }
   run_detail glass_small 24000 glass_small_entries BIODEM_GPU_FORCES=entries
+  run_detail glass_small 24000 glass_small_sum_lanes BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1
   run_detail raw 61000 raw_walk1 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1
 fi
 
@@ -89,7 +90,7 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_PROFILE=1+BIODEM_GPU_BUILD_LANES=1 \
-  BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=rows \
+  BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
   BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}

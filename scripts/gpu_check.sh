@@ -22,8 +22,9 @@
 #      failed in the needle drum's run; (3h) a fault injected into the device at step 3,000
 #      (BIODEM_TEST_GPU_FAULT_AT_STEP; on a GPU also met inside Thrust) ends the run with one
 #      error line and status 2, not std::terminate;
-#      (3i) each contact kernel set forced, and on a GPU the row walk with 1, 2 and 32 lanes
-#      and blocks of 32 and 512 threads, byte-identical to (3);
+#      (3i) each contact kernel set forced (the entry kernels also with their sums by the row
+#      lanes, BIODEM_GPU_SUM_LANES=1), and on a GPU the row walk with 1, 2 and 32 lanes and
+#      blocks of 32 and 512 threads, byte-identical to (3);
 #      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
 #      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
@@ -31,7 +32,8 @@
 #      positions within stated tolerances;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
-#      row byte-identical, CPU engine agreement;
+#      row and the single-sphere body kernel with its sums by the row lanes byte-identical, CPU
+#      engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
 # It exits non-zero if any check fails.
@@ -47,8 +49,9 @@
 #   GPU_CHECK_OUT        output folder (default out/gpu_check); the report is OUT/report.md
 #   GPU_CHECK_SKIP_CTEST 1: skip check 1 (when this script itself runs inside ctest)
 #   GPU_CHECK_SANITIZER_JOBS  the sanitizer runs of check 2 as tool:kernels (kernels: auto,
-#                        entries, rows1: the row walk by one thread per sphere); default
-#                        the six of the table below, empty: none
+#                        entries, rows1: the row walk by one thread per sphere, sumlanes:
+#                        the entry kernels with their sums by the row lanes); default the
+#                        seven of the table below, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
 #   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
@@ -257,12 +260,14 @@ done
 # 128 threads; emulated these switches change nothing and are not run).
 BIODEM_GPU_FORCES=rows run_biodem needles_rows "$needles" "$OUT/needles_rows" --device "$DEVICE"; sr=$?
 BIODEM_GPU_FORCES=entries run_biodem needles_entries "$needles" "$OUT/needles_entries" --device "$DEVICE"; se=$?
-lanes_ok=1; d1=""; d2=""; d=""
-lanes_detail="rows and entries forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt)"
-elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2)"
+BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem needles_sum_lanes "$needles" "$OUT/needles_sum_lanes" --device "$DEVICE"; sl=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d=""
+lanes_detail="rows, entries and entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt)"
+elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
+     ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3)"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 32; do
@@ -379,6 +384,8 @@ run_biodem wide_a "$wide" "$OUT/wide_a" --device "$DEVICE"; wa=$?
 run_biodem wide_b "$wide" "$OUT/wide_b" --device "$DEVICE"; wb=$?
 run_biodem wide_cpu "$wide" "$OUT/wide_cpu" --device cpu; wc=$?
 BIODEM_GPU_BUILD_LANES=1 run_biodem wide_build1 "$wide" "$OUT/wide_build1" --device "$DEVICE"; wd=$?
+# (single-sphere bodies: the entry kernels' sums inside the body kernel, by the row lanes)
+BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem wide_sum_lanes "$wide" "$OUT/wide_sum_lanes" --device "$DEVICE"; we=$?
 if [ $wa -ne 0 ] || [ $wb -ne 0 ] || [ $wc -ne 0 ]; then
   record "6. wider-row rebuild" FAIL "a run failed (logs/wide_*.txt)"
 else
@@ -391,6 +398,9 @@ else
   if [ $wd -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_BUILD_LANES=1 failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_build1"); then detail="$detail; BuildRows (BIODEM_GPU_BUILD_LANES=1) byte-identical"
   else ok=0; detail="$detail; BuildRows differs: $(echo $diff)"; fi
+  if [ $we -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_SUM_LANES=1 failed"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_sum_lanes"); then detail="$detail; entry sums by the row lanes (BIODEM_GPU_SUM_LANES=1) byte-identical"
+  else ok=0; detail="$detail; entry sums by the row lanes differ: $(echo $diff)"; fi
   if cmp_detail=$(compare_engines wide "$OUT/wide_cpu" "$OUT/wide_a" 0.5 0.05); then detail="$detail; vs CPU: $cmp_detail"; else ok=0; detail="$detail; vs CPU: $cmp_detail"; fi
   [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
 fi
@@ -400,11 +410,12 @@ if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
   # The 40k drum runs the row-walk contact kernel by default (BIODEM_GPU_FORCES=auto picks it
   # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes}; do
     tool=${job%:*} forces=${job#*:}
     case "$forces" in
       entries) what=", entry kernels"; envs=(BIODEM_GPU_FORCES=entries) ;;
       rows1) what=", row walk in one thread per sphere"; envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1) ;;
+      sumlanes) what=", entry kernels with the sums by the row lanes"; envs=(BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool (40,200 spheres$what)"

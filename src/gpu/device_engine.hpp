@@ -145,6 +145,10 @@ class DeviceEngine {
   /// and comparisons.
   /// entry_force_passes() counts the steps whose forces the entry kernels evaluated.
   virtual void set_entry_forces(bool on) = 0;
+  /// The entry kernels' per-sphere sums as a row walk shared by the row lanes (SumEntriesWalk,
+  /// SumEntriesKickDriftWalk) or by one thread per sphere; the same bits. By default one of the
+  /// timed sets on a GPU, one thread on CPU threads; BIODEM_GPU_SUM_LANES=1|0|auto or this switch.
+  virtual void set_sum_lanes(bool on) = 0;
   /// Which contact kernels run and why (run.log): set by a switch, by the sphere count, or timed
   /// (BIODEM_GPU_FORCES=timed, and auto on a GPU: after each upload the first runs of steps
   /// between list checks alternate the two sets, each timed on the device, and the faster runs

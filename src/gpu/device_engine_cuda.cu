@@ -755,6 +755,9 @@ class NamedErrorsEngine final : public DeviceEngine {
   void set_entry_forces(bool on) override {
     thrust_errors_named("a kernel switch", [&] { e_.set_entry_forces(on); });
   }
+  void set_sum_lanes(bool on) override {
+    thrust_errors_named("a kernel switch", [&] { e_.set_sum_lanes(on); });
+  }
   std::string contact_kernels() const override { return e_.contact_kernels(); }
   std::uint64_t entry_force_passes() const override { return e_.entry_force_passes(); }
   std::string profile_report() const override { return e_.profile_report(); }

@@ -123,6 +123,16 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_CHECK_EVERY = '" + std::string(every) + "': expected a whole number of steps from 1 to 64");
       check_every_ = static_cast<std::uint32_t>(v);
     }
+    // BIODEM_GPU_SUM_LANES=1|0|auto: the entry kernels' per-sphere sums as a row walk shared by
+    // the row lanes (SumEntriesWalk, SumEntriesKickDriftWalk), or by one thread per sphere
+    // (SumEntries, SumEntriesKickDrift); auto: a fourth set of the timed choice on a GPU, one
+    // thread elsewhere. The same bits either way.
+    if (const char* sl = std::getenv("BIODEM_GPU_SUM_LANES"); sl && *sl) {
+      const std::string v(sl);
+      if (v != "0" && v != "1" && v != "auto")
+        throw Error("BIODEM_GPU_SUM_LANES = '" + v + "': expected 0, 1 or auto");
+      sum_lanes_mode_ = v == "1" ? SumLanes::on : v == "0" ? SumLanes::off : SumLanes::automatic;
+    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -184,6 +194,10 @@ class Engine final : public DeviceEngine {
     invalidate_graphs();
     fuse_ = on;
   }
+  void set_sum_lanes(bool on) override {
+    sum_lanes_mode_ = on ? SumLanes::on : SumLanes::off;
+    invalidate_graphs();
+  }
   void set_entry_forces(bool on) override {
     invalidate_graphs();
     if (rows_.length.size() == ns() && rows_.mirror.size() == rows_.j.size()) mirror_history();
@@ -197,7 +211,9 @@ class Engine final : public DeviceEngine {
       std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
       return std::string(b);
     };
-    const std::string set = use_entry_kernels() ? "per-contact (PairEntries, SumEntries)" : "per-sphere row walk (Forces)";
+    const std::string set = use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
+                                                      (sum_lanes() ? " by the row lanes)" : ")")
+                                                : "per-sphere row walk (Forces)";
     switch (forces_mode_) {
       case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";
       case ForcesMode::rows: return set + ", set by BIODEM_GPU_FORCES=rows or a test";
@@ -213,7 +229,8 @@ class Engine final : public DeviceEngine {
            " steps after the last upload (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
            System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
-           ") (" + std::to_string(tuning_.uploads) + " choice(s) in the run)";
+           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step (" +
+           std::to_string(tuning_.uploads) + " choice(s) in the run)";
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
@@ -461,18 +478,20 @@ class Engine final : public DeviceEngine {
   ForcesMode forces_mode_ = ForcesMode::automatic;
   /// The choice of the contact kernels by timing (BIODEM_GPU_FORCES=timed, and auto on a GPU):
   /// after each upload the first kTuneIntervals runs of steps between list checks cycle through
-  /// three sets, each run timed on the device (System::Timer): the entry kernels, the row walk
-  /// shared by the row lanes (System::launch_walks, BIODEM_GPU_ROW_LANES) and the row walk in one
-  /// thread per sphere; then the set with the lowest median time per step runs until the next
+  /// four sets, each run timed on the device (System::Timer): the entry kernels, the row walk
+  /// shared by the row lanes (System::launch_walks, BIODEM_GPU_ROW_LANES), the row walk in one
+  /// thread per sphere, and the entry kernels with their sums shared by the row lanes
+  /// (SumEntriesWalk, SumEntriesKickDriftWalk); then the set with the lowest median time per step runs until the next
   /// upload (the median, so that one run slowed by something else does not decide). All give the
   /// same bits, so the choice changes no result. (On CPU threads both walks are the same code.)
-  static constexpr std::uint32_t kTuneSets = 3;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread
+  static constexpr std::uint32_t kTuneSets = 4;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
+                                                 // [3] entries with the sums by the row lanes
   static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
   struct Tuning {
     std::uint32_t intervals = 0;                // timed so far since the upload
     double per_step[kTuneIntervals] = {};       // seconds per step of each (set: interval % kTuneSets)
     std::uint64_t steps = 0;
-    double median[kTuneSets] = {0.0, 0.0, 0.0};  // per set, once all are timed
+    double median[kTuneSets] = {};               // per set, once all are timed
     std::uint32_t choice = 0;                    // the set chosen, once all are timed
     std::uint32_t uploads = 0;                   // choices made (one per upload that got that far)
   } tuning_;
@@ -491,10 +510,18 @@ class Engine final : public DeviceEngine {
       default: break;
     }
     if (!timed_choice()) return ns() < kEntryForcesBelow;
-    return tuned_set() == 0;
+    return tuned_set() == 0 || tuned_set() == 3;
   }
   /// The row walk in one thread per sphere instead of the row lanes (the timed choice only).
   bool walk_single() const { return timed_choice() && !use_entry_kernels() && tuned_set() == 2; }
+  /// The entry kernels' per-sphere sums by the row lanes (BIODEM_GPU_SUM_LANES; the timed
+  /// choice's fourth set).
+  enum class SumLanes { automatic, off, on };
+  SumLanes sum_lanes_mode_ = SumLanes::automatic;
+  bool sum_lanes() const {
+    if (sum_lanes_mode_ != SumLanes::automatic) return sum_lanes_mode_ == SumLanes::on;
+    return timed_choice() && use_entry_kernels() && tuned_set() == 3;
+  }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
@@ -990,7 +1017,11 @@ template <bool Cohesion, bool Rolling>
 void Engine::launch_forces(const ContactArgs& c) {
   if (entries_ready()) {
     launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
-    launch(ns(), SumEntries<Cohesion, Rolling>{c});
+    if (sum_lanes()) {
+      if (ns()) System::launch_walks(ns(), SumEntriesWalk{c}, false);
+    } else {
+      launch(ns(), SumEntries<Cohesion, Rolling>{c});
+    }
   } else {
     launch_walks(ns(), Forces<Cohesion, Rolling>{c});
   }
@@ -1017,7 +1048,8 @@ inline void Engine::fused_unit() {
   if (single_spheres_ && entries_ready()) {  // glass beads: the sums inside ReduceKickDrift
     const ContactArgs c = contact_args(halt());
     launch_pair_entries(c);
-    launch(nb(), SumEntriesKickDrift{c, rkd});
+    if (!sum_lanes()) launch(nb(), SumEntriesKickDrift{c, rkd});
+    else if (nb()) System::launch_walks(nb(), SumEntriesKickDriftWalk{c, rkd}, false);
     return;
   }
   compute_forces(halt());
@@ -1063,7 +1095,7 @@ inline void Engine::run_units(std::uint32_t units) {
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
-                            (walk_single() ? 1u << 11 : 0u) |
+                            (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();

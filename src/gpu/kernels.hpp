@@ -1277,39 +1277,107 @@ struct ReduceKickDrift {
   }
 };
 
+/// The rest of SumEntriesKickDrift once sphere k's sums (fs, ts, count) are known: they are
+/// stored, then ReduceKickDrift of body k on them. The body's state and the sphere's centre are
+/// loaded before the first store; the body sums take the sphere's sums from registers (body_sums
+/// of a body of one sphere on the values just stored: the same operations on the same values,
+/// so the same bits as the two kernels).
+BIODEM_HD inline void finish_single_sphere(const ContactArgs& c, const ReduceKickDrift& rkd, std::uint32_t k,
+                                           const Vec3& fs, const Vec3& ts, std::uint32_t count) {
+  const BodyState st = load_body(rkd.b, k);
+  const Vec3 p = c.s.position[k];
+  c.s.force[k] = fs;
+  c.s.torque[k] = ts;
+  c.s.contacts[k] = count;
+  Vec3 f = st.m * rkd.gravity, t{};
+  f += fs;
+  t += ts + cross(p - st.x, fs);
+  rkd.finish(k, st, f, t);
+}
+
 /// In a scene of single-sphere bodies (glass beads), SumEntries of body k's sphere and
 /// ReduceKickDrift of body k in one thread: one launch and one pass over the spheres fewer per
-/// step. The sphere's sums are stored, then ReduceKickDrift reads them back, so the same
-/// operations in the same order as the two kernels: the same bits. Only for bodies of one sphere
-/// (the engine launches it only when every body has one).
+/// step. The same operations in the same order as the two kernels: the same bits. Only for
+/// bodies of one sphere whose sphere k is body k's (the engine launches it only then).
 struct SumEntriesKickDrift {
   ContactArgs c;
   ReduceKickDrift rkd;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(rkd.halt)) return;
-    // The body's state and its sphere's centre are loaded after the sums (loaded with the
-    // entries they cost registers the entry loads need: spills) but before the first store, and
-    // the body sums take the sphere's sums from registers (before: the body's state loaded after
-    // the sphere's sums were stored, and those sums then read back from memory).
     // Body k's sphere is sphere k: the engine launches this kernel only when every body has one
     // sphere and body k's first sphere is k (checked at upload; a body sort keeps it, the first
     // spheres being the running sum of the counts), so no load of first_sphere before the row's.
-    const std::uint32_t a = k;
+    // The body's state is loaded after the sums (loaded with the entries it costs registers the
+    // entry loads need: spills).
     Vec3 fs, ts;
     std::uint32_t count = 0;
-    c.sum_entries(a, c.s.sid[a], c.rows.length[a], fs, ts, count);
-    const BodyState st = load_body(rkd.b, k);
-    const Vec3 p = c.s.position[a];
-    c.s.force[a] = fs;
-    c.s.torque[a] = ts;
-    c.s.contacts[a] = count;
-    // body_sums of a body of one sphere, on the values just stored: the same operations on the
-    // same values, so the same bits.
-    Vec3 f = st.m * rkd.gravity, t{};
-    f += fs;
-    t += ts + cross(p - st.x, fs);
-    rkd.finish(k, st, f, t);
+    c.sum_entries(k, c.s.sid[k], c.rows.length[k], fs, ts, count);
+    finish_single_sphere(c, rkd, k, fs, ts, count);
   }
+};
+
+/// Contact v of a sphere's walk over the entry buffers that PairEntries wrote: v < st.len the
+/// pair entry v's result (kind 1 when the walk's sphere is the pair's lower-id side, 2 when not),
+/// then the walls (kind 3); kind 0 when not touching or past the walk's end. walk_add adds kind
+/// 1, 2 and 3 with add_pair's and the walls' operations of sum_entries, in the same order (the
+/// row's entries, then the walls), so a walk gives sum_entries' bits.
+BIODEM_HD inline RowContact entry_result(const ContactArgs& c, const WalkStart& st, std::uint32_t v) {
+  RowContact r;
+  if (v < st.len) {
+    const std::uint32_t k = v * c.n + st.a;
+    const bool touching = c.rows.touching[k] != 0, low = st.sid_a < c.rows.sid[k];
+    const Vec3 f = c.rows.entry_force[k], t = c.rows.entry_torque[k];
+    if (touching) {
+      r.force = f;
+      r.torque = t;
+      r.kind = low ? 1 : 2;
+    }
+  } else if (v < st.total) {
+    const std::uint32_t slot = (v - st.len) * c.n + st.a;
+    const bool touching = c.wall_touching[slot] != 0;
+    const Vec3 f = c.rows.wall_force[slot], t = c.rows.wall_torque[slot];
+    if (touching) {
+      r.force = f;
+      r.torque = t;
+      r.kind = 3;
+    }
+  }
+  return r;
+}
+BIODEM_HD inline bool entry_walk_begin(const ContactArgs& c, std::uint32_t a, WalkStart& st) {
+  st.a = a;
+  st.sid_a = c.s.sid[a];
+  st.len = c.rows.length[a];
+  st.total = st.len + c.n_walls;
+  return true;
+}
+
+/// SumEntries as a row walk over the entry buffers (BIODEM_GPU_SUM_LANES): on CUDA a group of
+/// row lanes per sphere (walk_row_lanes), whose lanes load their entries' results at once and
+/// add them in walk order, instead of one thread loading the row's entries chunk by chunk; on CPU
+/// threads one thread (walk_row). The same bits as SumEntries (entry_result).
+struct SumEntriesWalk : ContactArgs {
+  BIODEM_HD bool walk_begin(std::uint32_t a, WalkStart& st) const { return !halted(halt) && entry_walk_begin(*this, a, st); }
+  BIODEM_HD RowContact walk_entry(const WalkStart& st, std::uint32_t v) const { return entry_result(*this, st, v); }
+  BIODEM_HD void walk_end(std::uint32_t, const WalkStart& st, const Vec3& f, const Vec3& t, std::uint32_t count) const {
+    s.force[st.a] = f;
+    s.torque[st.a] = t;
+    s.contacts[st.a] = count;
+  }
+  BIODEM_HD void operator()(std::uint32_t a) const { walk_row(*this, a); }
+};
+
+/// SumEntriesKickDrift with the sphere's sums as a row walk (as SumEntriesWalk); lane 0 of the
+/// group then finishes the body (finish_single_sphere). The same bits as SumEntriesKickDrift.
+struct SumEntriesKickDriftWalk {
+  ContactArgs c;
+  ReduceKickDrift rkd;
+  BIODEM_HD bool walk_begin(std::uint32_t k, WalkStart& st) const { return !halted(rkd.halt) && entry_walk_begin(c, k, st); }
+  BIODEM_HD RowContact walk_entry(const WalkStart& st, std::uint32_t v) const { return entry_result(c, st, v); }
+  BIODEM_HD void walk_end(std::uint32_t k, const WalkStart&, const Vec3& f, const Vec3& t, std::uint32_t count) const {
+    finish_single_sphere(c, rkd, k, f, t, count);
+  }
+  BIODEM_HD void operator()(std::uint32_t k) const { walk_row(*this, k); }
 };
 
 /// Kinetic energy of body k (translation + rotation in the principal frame), as the CPU engine.

@@ -846,9 +846,10 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
   EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
 }
 
-// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 12 runs of steps
-// between list checks cycle through the entry kernels, the row walk with the row lanes and the
-// row walk in one thread per sphere, timed; the fastest runs on.
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 16 runs of steps
+// between list checks cycle through the entry kernels, the row walk with the row lanes, the
+// row walk in one thread per sphere and the entry kernels with their sums by the row lanes,
+// timed; the fastest runs on.
 // Each switch from the entry kernels to the row walk hands over the history (the row walk reads
 // both entries of a pair). The packing stepped that way, with an upload (a new round of trials)
 // in the middle, is bit-identical after every run to the packing stepped with the row walk
@@ -904,6 +905,38 @@ TEST(GpuEngine, SumsInsideTheKickGiveTheBitsOfSumEntries) {
     EXPECT_EQ(ea->sums_in_kick_steps(), ea->fused_steps());
     EXPECT_EQ(eb->sums_in_kick_steps(), 0u);
     EXPECT_GT(ea->list_builds(), 5u);
+  }
+}
+
+// The entry kernels' per-sphere sums as a row walk (SumEntriesWalk; in single-sphere scenes
+// SumEntriesKickDriftWalk), on CPU threads by one thread per sphere (on CUDA shared by the row
+// lanes; test_group_lanes.cpp covers the lanes): bit-identical after every run to SumEntries and
+// SumEntriesKickDrift, in the packing of needles and in the packing of spheres (the sums inside
+// the body kernel), across list checks, rebuilds, a criterion phase and an upload.
+TEST(GpuEngine, EntrySumsAsARowWalkGiveTheBitsOfSumEntries) {
+  for (const bool spheres_only : {false, true}) {
+    const auto r = stepped_alike(
+        spheres_only ? 1.2e-3 : 0.5e-3, spheres_only, true,
+        [](gpu::DeviceEngine& e) {
+          e.set_entry_forces(true);
+          e.set_sum_lanes(true);
+        },
+        [](gpu::DeviceEngine& e) {
+          e.set_entry_forces(true);
+          e.set_sum_lanes(false);
+        });
+    std::printf("[measured] entry sums as a row walk vs one thread per sphere (%s): %llu steps, %llu with the sums "
+                "in the body kernel, %llu list builds; bit-identical after every run\n",
+                spheres_only ? "spheres" : "needles", static_cast<unsigned long long>(r.steps),
+                static_cast<unsigned long long>(r.ea->sums_in_kick_steps()),
+                static_cast<unsigned long long>(r.ea->list_builds()));
+    EXPECT_EQ(r.ea->entry_force_passes(), r.steps);
+    EXPECT_GT(r.ea->list_builds(), 5u);
+    if (spheres_only) {
+      EXPECT_GT(r.ea->sums_in_kick_steps(), r.steps / 2);
+    }
+    const std::string how = r.ea->contact_kernels();
+    EXPECT_NE(how.find("by the row lanes"), std::string::npos) << how;
   }
 }
 

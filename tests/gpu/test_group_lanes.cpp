@@ -542,3 +542,86 @@ TEST(RowBuild, StaleBoxAndNonFinitePositionsGiveTheBruteForceRows) {
   EXPECT_GT(outside, 500u) << "spheres must have left the box for the test to mean anything";
   EXPECT_GT(pairs, 10000u);
 }
+
+// 4. The entry kernels' per-sphere sums as a row walk (SumEntriesWalk, BIODEM_GPU_SUM_LANES; on
+// CUDA a group of row lanes per sphere) against SumEntries (one thread loading the row's entries
+// eight at a time): force, torque and contact count of every sphere bit for bit, with groups of
+// 1 (walk_row), 4, 16 and 32 lanes. Random entry buffers: rows of 0 to 40 entries (capacity 40),
+// random touching flags and stable ids (so both sides of pairs), three walls with random
+// touching flags, values spanning six decades (any other order of the additions gives other
+// bits), entries past a row's length and untouched slots filled with values that must not count.
+TEST(RowWalkLanes, EntrySumsByLanesGiveTheBitsOfSumEntries) {
+  constexpr std::uint32_t n = 257, cap = 40, walls = 3;
+  std::mt19937_64 gen(20261126);
+  std::uniform_int_distribution<std::uint32_t> len_of(0, cap), sid_of(0, 100000), coin(0, 1);
+  auto value = [&gen] {
+    std::uniform_real_distribution<double> u(-0.5, 0.5);
+    std::uniform_int_distribution<int> e(-10, 10);
+    return std::ldexp(u(gen), e(gen));
+  };
+  std::vector<std::uint32_t> sid(n), length(n), row_sid(n * cap), contacts(n, 12345), zero_u(n, 0);
+  std::vector<std::uint8_t> touching(n * cap), wall_touching(n * walls);
+  std::vector<Vec3> ef(n * cap), et(n * cap), wf(n * walls), wt(n * walls), zero3(n), force(n), torque(n);
+  std::vector<double> zero1(n, 0.0);
+  for (std::uint32_t a = 0; a < n; ++a) {
+    sid[a] = sid_of(gen);
+    length[a] = len_of(gen);
+  }
+  std::size_t counted = 0;
+  for (std::uint32_t k = 0; k < n * cap; ++k) {
+    row_sid[k] = sid_of(gen);
+    touching[k] = static_cast<std::uint8_t>(coin(gen));
+    ef[k] = Vec3{value(), value(), value()};
+    et[k] = Vec3{value(), value(), value()};
+    counted += touching[k] && k / n < length[k % n];
+  }
+  for (std::uint32_t k = 0; k < n * walls; ++k) {
+    wall_touching[k] = static_cast<std::uint8_t>(coin(gen));
+    wf[k] = Vec3{value(), value(), value()};
+    wt[k] = Vec3{value(), value(), value()};
+  }
+  auto args = [&](std::vector<Vec3>& f, std::vector<Vec3>& t, std::vector<std::uint32_t>& c) {
+    ContactArgs a{};
+    a.s = SphereArrays{zero3.data(), zero3.data(), zero3.data(), zero3.data(), f.data(),   t.data(),     zero3.data(),
+                       zero1.data(), zero1.data(), zero_u.data(), zero_u.data(), sid.data(), c.data()};
+    a.rows = RowArrays{nullptr,   row_sid.data(), nullptr,   touching.data(), nullptr,   length.data(),
+                       cap,       nullptr,        ef.data(), et.data(),       wf.data(), wt.data()};
+    a.wall_touching = wall_touching.data();
+    a.n_walls = walls;
+    a.n = n;
+    a.halt = nullptr;
+    return a;
+  };
+  std::vector<Vec3> f1(n), t1(n);
+  std::vector<std::uint32_t> c1(n, 12345);
+  const SumEntries<false, false> one{args(f1, t1, c1)};
+  for (std::uint32_t a = 0; a < n; ++a) one(a);
+  for (const std::uint32_t lanes : {1u, 4u, 16u, 32u}) {
+    std::vector<Vec3> f(n, Vec3{-1, -1, -1}), t(n, Vec3{-1, -1, -1});
+    std::vector<std::uint32_t> c(n, 12345);
+    const SumEntriesWalk walk{args(f, t, c)};
+    if (lanes == 1) {
+      for (std::uint32_t a = 0; a < n; ++a) walk(a);
+    } else {
+      GroupState state(lanes);
+      std::vector<std::thread> team;
+      for (std::uint32_t l = 0; l < lanes; ++l)
+        team.emplace_back([&, l] {
+          const ThreadLanes me{&state, l, lanes};
+          for (std::uint32_t a = 0; a < n; ++a) walk_row_lanes(walk, a, me);
+        });
+      for (auto& th : team) th.join();
+    }
+    std::size_t differ = 0;
+    for (std::uint32_t a = 0; a < n; ++a)
+      differ += !(std::memcmp(&f[a], &f1[a], sizeof(Vec3)) == 0 && std::memcmp(&t[a], &t1[a], sizeof(Vec3)) == 0 &&
+                  c[a] == c1[a]);
+    EXPECT_EQ(differ, 0u) << lanes << " lanes";
+    std::printf("[measured] entry sums by %u lanes vs SumEntries: %u spheres, %zu touching entries, %zu differ\n", lanes,
+                n, counted, differ);
+  }
+  std::size_t counts = 0;
+  for (std::uint32_t a = 0; a < n; ++a) counts += c1[a];
+  EXPECT_GT(counted, 2000u);
+  EXPECT_GT(counts, counted / 4);  // (pairs counted by their lower-id side, walls always)
+}
