@@ -17,7 +17,7 @@
 #   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
 #                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES
 #                                        (empty: no ncu), NCU_DETAIL (1: ncu's sections of
-#                                        four step kernels, part 1b), SWEEP_SETTINGS (empty:
+#                                        step kernels, part 1b), SWEEP_SETTINGS (empty:
 #                                        no sweep)
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -63,9 +63,10 @@ done
 
 # ---------------------------------------------------- 1b. what the step kernels wait for (NCU_DETAIL=1)
 # ncu's sections (speed of light, occupancy, launch, warp states, scheduler, memory and compute
-# workload) of four step kernels of the timed rotation phase, with the caches as the run leaves
-# them (--cache-control none): glass_small with the entry kernels, raw with the row walk by one
-# thread per sphere. The kernels are named by their demangled names (all launch for_each_index). The launches are counted among those kernels only.
+# workload) of four launches of the step kernels in the timed rotation phase of each of three
+# runs, with the caches as the run leaves them (--cache-control none): glass_small with the entry
+# kernels, the same with their sums by the row lanes, raw with the row walk by one thread per
+# sphere. The kernels are named by their demangled names (all launch for_each_index). The launches are counted among those kernels only.
 if [ "${NCU_DETAIL:-0}" = 1 ] && [ -x "$ncu_bin" ]; then
   run_detail() {  # case launches-to-skip label VAR=value...
     local c=$1 skipn=$2 label=$3

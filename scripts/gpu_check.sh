@@ -50,8 +50,9 @@
 #   GPU_CHECK_SKIP_CTEST 1: skip check 1 (when this script itself runs inside ctest)
 #   GPU_CHECK_SANITIZER_JOBS  the sanitizer runs of check 2 as tool:kernels (kernels: auto,
 #                        entries, rows1: the row walk by one thread per sphere, sumlanes:
-#                        the entry kernels with their sums by the row lanes); default the
-#                        seven of the table below, empty: none
+#                        the entry kernels with their sums by the row lanes, spheres: the
+#                        same on the wide-row scene of single spheres); default the nine of
+#                        docs/gpu.md section 6, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
 #   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
@@ -410,18 +411,25 @@ if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
   # The 40k drum runs the row-walk contact kernel by default (BIODEM_GPU_FORCES=auto picks it
   # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes}; do
+  # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
+  # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
+  # lane 0 finishes the body).
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres}; do
     tool=${job%:*} forces=${job#*:}
+    scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
       entries) what=", entry kernels"; envs=(BIODEM_GPU_FORCES=entries) ;;
       rows1) what=", row walk in one thread per sphere"; envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1) ;;
       sumlanes) what=", entry kernels with the sums by the row lanes"; envs=(BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1) ;;
+      spheres) what=", entry kernels with the sums by the row lanes in the body kernel"
+               envs=(BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1)
+               scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
-    name="2. compute-sanitizer $tool (40,200 spheres$what)"
+    name="2. compute-sanitizer $tool ($scene_name$what)"
     if [ ! -x "$san" ]; then record "$name" FAIL "compute-sanitizer not found"; continue; fi
     rm -rf "$OUT/san_${tool}_$forces"
-    if env "${envs[@]}" "${TMO[@]}" "$san" --tool "$tool" --error-exitcode 99 "$bin" run tests/cases/gpu_check_drum40k.toml \
+    if env "${envs[@]}" "${TMO[@]}" "$san" --tool "$tool" --error-exitcode 99 "$bin" run "$scene" \
          --out "$OUT/san_${tool}_$forces" --device gpu > "$logs/sanitizer_${tool}_$forces.txt" 2>&1; then
       record "$name" PASS "$(grep -E 'ERROR SUMMARY|RACECHECK SUMMARY' "$logs/sanitizer_${tool}_$forces.txt" | tail -n 1)"
     else

@@ -212,7 +212,7 @@ class Engine final : public DeviceEngine {
       return std::string(b);
     };
     const std::string set = use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
-                                                      (sum_lanes() ? " by the row lanes)" : ")")
+                                                      (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
                                                 : "per-sphere row walk (Forces)";
     switch (forces_mode_) {
       case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";

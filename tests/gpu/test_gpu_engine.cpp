@@ -936,7 +936,7 @@ TEST(GpuEngine, EntrySumsAsARowWalkGiveTheBitsOfSumEntries) {
       EXPECT_GT(r.ea->sums_in_kick_steps(), r.steps / 2);
     }
     const std::string how = r.ea->contact_kernels();
-    EXPECT_NE(how.find("by the row lanes"), std::string::npos) << how;
+    EXPECT_NE(how.find("SumEntries by the "), std::string::npos) << how;
   }
 }
 
