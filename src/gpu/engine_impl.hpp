@@ -481,8 +481,9 @@ class Engine final : public DeviceEngine {
   /// four sets, each run timed on the device (System::Timer): the entry kernels, the row walk
   /// shared by the row lanes (System::launch_walks, BIODEM_GPU_ROW_LANES), the row walk in one
   /// thread per sphere, and the entry kernels with their sums shared by the row lanes
-  /// (SumEntriesWalk, SumEntriesKickDriftWalk); then the set with the lowest median time per step runs until the next
-  /// upload (the median, so that one run slowed by something else does not decide). All give the
+  /// (SumEntriesWalk, SumEntriesKickDriftWalk); then the set with the lowest median time per
+  /// step runs until the next upload (the median, so that one run slowed by something else does
+  /// not decide). All give the
   /// same bits, so the choice changes no result. (On CPU threads both walks are the same code.)
   static constexpr std::uint32_t kTuneSets = 4;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
                                                  // [3] entries with the sums by the row lanes
