@@ -355,6 +355,24 @@ struct MadeUpWalk {
 
 }  // namespace
 
+namespace {
+
+/// walk_row_lanes(w, i, lane) for items 0 .. items - 1 by a group of `lanes` lanes, each lane a
+/// thread (as for_each_walk runs one group per item on CUDA).
+template <class W>
+void walk_rows_in_thread_lanes(const W& w, std::uint32_t items, std::uint32_t lanes) {
+  GroupState state(lanes);
+  std::vector<std::thread> team;
+  for (std::uint32_t l = 0; l < lanes; ++l)
+    team.emplace_back([&, l] {
+      const ThreadLanes me{&state, l, lanes};
+      for (std::uint32_t i = 0; i < items; ++i) walk_row_lanes(w, i, me);
+    });
+  for (auto& th : team) th.join();
+}
+
+}  // namespace
+
 TEST(RowWalkLanes, GroupsOfThreadLanesGiveTheSumsOfOneThread) {
   constexpr std::uint32_t kItems = 300;
   std::vector<Vec3> f1(kItems, Vec3{-1, -1, -1}), t1(kItems, Vec3{-1, -1, -1});  // (untouched where nothing to do)
@@ -367,14 +385,7 @@ TEST(RowWalkLanes, GroupsOfThreadLanesGiveTheSumsOfOneThread) {
     std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
     std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
     const MadeUpWalk grouped{f.data(), t.data(), c.data(), e.data()};
-    GroupState state(lanes);
-    std::vector<std::thread> team;
-    for (std::uint32_t l = 0; l < lanes; ++l)
-      team.emplace_back([&, l] {
-        const ThreadLanes me{&state, l, lanes};
-        for (std::uint32_t i = 0; i < kItems; ++i) walk_row_lanes(grouped, i, me);
-      });
-    for (auto& th : team) th.join();
+    walk_rows_in_thread_lanes(grouped, kItems, lanes);
     std::size_t differ = 0;
     for (std::uint32_t i = 0; i < kItems; ++i) {
       const bool same = std::memcmp(&f[i], &f1[i], sizeof(Vec3)) == 0 && std::memcmp(&t[i], &t1[i], sizeof(Vec3)) == 0 &&
@@ -603,14 +614,7 @@ TEST(RowWalkLanes, EntrySumsByLanesGiveTheBitsOfSumEntries) {
     if (lanes == 1) {
       for (std::uint32_t a = 0; a < n; ++a) walk(a);
     } else {
-      GroupState state(lanes);
-      std::vector<std::thread> team;
-      for (std::uint32_t l = 0; l < lanes; ++l)
-        team.emplace_back([&, l] {
-          const ThreadLanes me{&state, l, lanes};
-          for (std::uint32_t a = 0; a < n; ++a) walk_row_lanes(walk, a, me);
-        });
-      for (auto& th : team) th.join();
+      walk_rows_in_thread_lanes(walk, n, lanes);
     }
     std::size_t differ = 0;
     for (std::uint32_t a = 0; a < n; ++a)
