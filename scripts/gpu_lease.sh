@@ -9,7 +9,8 @@
 # --prepare makes the lean CUDA build (build-gpu/, sm_90, no OpenCV, pagmo or MPI) and copies
 # what the runs need into devcarry/ (ignored by git): the binaries and ctest's files, the CUDA
 # runtime, libgomp and libstdc++ (used only if the GPU machine's own are missing), the path the
-# build was configured in; --fmad adds a biodem built with -fmad=true.
+# build was configured in; --fmad adds a biodem built with -fmad=true, and GPU_LEASE_VARIANTS
+# ("NAME=FLAG ...") a biodem per entry built with one more CUDA flag, benched beside the default.
 #
 # On the GPU machine, in order, each under its own time limit, so that a lease cut short still
 # leaves the most important figures: (0) the device and a smoke run; (1) "bench":
@@ -47,6 +48,15 @@ if [ "${1:-}" = --prepare ]; then  # on the Debian machine, with CUDA and script
     cmake --build build-gpu-fmad -j"$(nproc)" --target biodem
     mkdir -p devcarry/fmad && cp build-gpu-fmad/biodem devcarry/fmad/biodem
   fi
+  # GPU_LEASE_VARIANTS="NAME=FLAG ...": a biodem per entry with one more CUDA compile flag (a
+  # compile-time kernel choice to time beside the default, e.g. chunk4=-DBIODEM_GPU_SUM_CHUNK=4)
+  for v in ${GPU_LEASE_VARIANTS:-}; do
+    name=${v%%=*} flag=${v#*=}
+    cmake -S . -B "build-gpu-$name" "${common[@]}" -DBIODEM_BUILD_TESTS=OFF "-DCMAKE_CUDA_FLAGS=$flag" > /dev/null
+    cmake --build "build-gpu-$name" -j"$(nproc)" --target biodem
+    mkdir -p "devcarry/variants/$name" && cp "build-gpu-$name/biodem" "devcarry/variants/$name/biodem"
+    echo "$flag" > "devcarry/variants/$name/flag"
+  done
   # the build without objects and archives (ctest's files, the test and program binaries)
   cp -a build-gpu devcarry/
   rm -rf devcarry/build-gpu/vendor_googletest devcarry/build-gpu/CMakeFiles devcarry/build-gpu/tests/out_* devcarry/build-gpu/tests/CMakeFiles
@@ -100,6 +110,14 @@ if [ -x devcarry/fmad/biodem ]; then  # made by --prepare --fmad
   DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
   stamp "bench -fmad=true: status $?"
 fi
+for vb in devcarry/variants/*/biodem; do  # made by --prepare with GPU_LEASE_VARIANTS
+  [ -x "$vb" ] || continue
+  name=$(basename "$(dirname "$vb")")
+  DEVICE=gpu BIODEM=$vb OUT="$O/bench_$name" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_$name.txt" 2>&1
+  stamp "bench variant $name ($(cat "$(dirname "$vb")/flag")): status $?"
+  BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=$vb OUT="$O/bench_${name}_entries" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_${name}_entries.txt" 2>&1
+  stamp "bench variant $name, entry kernels forced: status $?"
+done
 BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_rows.txt" 2>&1
 stamp "bench with the row-walk force kernel (BIODEM_GPU_FORCES=rows): status $?"
 fi
@@ -127,14 +145,15 @@ if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with
 fi
 
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
-for b in bench bench_entries bench_rows bench_fmad; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\)$' | tr '\n' ' ')
+for b in bench bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
 (cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
 fi
 echo; cat "$O/lease.log"; echo
-for b in bench bench_entries bench_rows bench_fmad; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+for b in bench bench_entries bench_rows bench_fmad $variant_benches; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 # (which kernels the default runs picked, and the list builds: run.log of each bench drum)
 for f in "$O"/bench/gpu_*/run.log; do
   [ -f "$f" ] && { echo "== $(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300; }

@@ -93,7 +93,10 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   current_phase_ = p.name;
   phase_index_ = index;
   sim_.set_drum_rotation(p.rotate);
-  if (dev_) dev_->sync_walls();
+  if (dev_) {
+    dev_->sync_walls();
+    dev_->retime_kernels();  // (the bed of a new phase: the contact kernels are timed again)
+  }
   log_ << "phase " << index + 1 << " '" << p.name << "' " << (start_step ? "resumes" : "starts") << " at t = "
        << sim_.time_s() << " s (step " << sim_.step_count() << "), rotation " << (p.rotate ? "on" : "off") << "\n";
   std::uint64_t k = start_step;

@@ -40,6 +40,11 @@ LaunchSwitches launch_switches() {
     if (log2 == 6) throw Error("BIODEM_GPU_ROW_LANES = '" + v + "': expected 1, 2, 4, 8, 16 or 32 lanes per row walk");
     sw.row_lanes_log2 = log2;
   }
+  if (const char* p = std::getenv("BIODEM_GPU_PDL"); p && *p) {
+    const std::string v(p);
+    if (v != "0" && v != "1") throw Error("BIODEM_GPU_PDL = '" + v + "': expected 0 or 1");
+    sw.pdl = v == "1";
+  }
   if (const char* l = std::getenv("BIODEM_GPU_BUILD_LANES"); l && *l) {
     const std::string v(l);
     const char* const allowed[] = {"1", "2", "4", "8", "16", "32"};

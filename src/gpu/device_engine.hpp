@@ -46,11 +46,14 @@ bool cuda_built();
 /// anything is computed), applied by the CUDA engine: BIODEM_GPU_BLOCK (threads per block of
 /// the one-index kernels: 32, 64, 128, 256, 512) and BIODEM_GPU_ROW_LANES (lanes per row walk:
 /// 1, 2, 4, 8, 16, 32) and BIODEM_GPU_BUILD_LANES (lanes per row of a list build: 1, which is
-/// one thread per sphere (BuildRows) on either backend, or 2, 4, 8, 16, 32: BuildRowsGrouped).
+/// one thread per sphere (BuildRows) on either backend, or 2, 4, 8, 16, 32: BuildRowsGrouped)
+/// and BIODEM_GPU_PDL (1, the default: the step kernels with programmatic dependent launch on
+/// compute capability 9.0 and later; 0: plain launches).
 struct LaunchSwitches {
-  std::uint32_t block = 128;
+  std::uint32_t block = 64;  // (H100: 64 faster than 128 by ~1.4 us/step at 20k and 40k spheres, docs/gpu.md)
   std::uint32_t row_lanes_log2 = 4;    // 16 lanes
   std::uint32_t build_lanes_log2 = 4;  // 16 lanes
+  bool pdl = true;                     // BIODEM_GPU_PDL: programmatic dependent launch (sm_90+)
 };
 /// Throws Error naming the variable when a value is not one of those listed.
 LaunchSwitches launch_switches();
@@ -103,6 +106,13 @@ class DeviceEngine {
   virtual double translational_kinetic_energy_j() = 0;  // sum of m v^2 / 2
   /// Re-reads the host walls (their prescribed angular velocities change with the drum phases).
   virtual void sync_walls() = 0;
+  /// A new phase starts (the driver calls it at each): the timed choice of the contact kernels
+  /// (BIODEM_GPU_FORCES=timed, the default on a GPU) times its sets again from the next run of
+  /// steps, since the bed's contacts may differ from those it was timed on. No effect otherwise.
+  virtual void retime_kernels() = 0;
+  /// Steps of the chosen set after which the timed choice times the sets again (default 20,000);
+  /// for tests.
+  virtual void set_retime_every(std::uint64_t steps) = 0;
   /// Device description for run.log ("NVIDIA H100 80GB HBM3 (sm_90, CUDA)").
   virtual std::string device_name() const = 0;
   /// Steps between two neighbour-list checks (default 10); for tests and tuning.

@@ -37,8 +37,24 @@ inline constexpr int kMostThreadsPerBlock = 512;
 /// Shared memory of a block of the grouped list build (the default limit without opting in).
 inline constexpr std::uint32_t kRowBuildSharedBytes = 48 * 1024;
 
+/// Programmatic dependent launch (sm_90; System::launch with pdl_launch()): a kernel launched
+/// with it may be scheduled while the kernel before it on the stream still runs. Every kernel of
+/// the engine's step first waits here until the kernels before it have completed and their
+/// memory is visible (griddepcontrol.wait; it returns at once for a kernel launched without the
+/// attribute), and only then lets the kernel after it be scheduled (launch_dependents), which in
+/// turn waits for this one's completion. So every load and store of a kernel still comes after
+/// all of the kernel before it: the same order of memory effects as plain launches, the same
+/// bits; what overlaps is the next kernel's launch and block scheduling.
+__device__ __forceinline__ void after_previous_kernel() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  asm volatile("griddepcontrol.wait;" ::: "memory");
+  asm volatile("griddepcontrol.launch_dependents;" ::: "memory");
+#endif
+}
+
 template <class F>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_index(std::uint32_t n, F f) {
+  after_previous_kernel();
   const std::uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i < n) f(i);
 }
@@ -489,11 +505,39 @@ class Timer {
 /// BIODEM_TEST_GPU_FAULT_AT_STEP (System::inject_fault).
 __global__ void trap_kernel() { __trap(); }
 
-/// Threads per block of the one-index-per-thread kernels (System::launch): 128 unless
+/// Threads per block of the one-index-per-thread kernels (System::launch): 64 unless
 /// BIODEM_GPU_BLOCK says 32, 64, 128, 256 or 512 (make_engine reads it; docs/gpu.md section 4).
 inline std::uint32_t& launch_block() {
-  static std::uint32_t b = 128;
+  static std::uint32_t b = 64;
   return b;
+}
+
+/// Programmatic dependent launch of the one-index kernels and row walks (after_previous_kernel):
+/// on unless BIODEM_GPU_PDL=0; only on devices of compute capability 9.0 and later.
+inline bool& pdl_launch() {
+  static bool on = false;
+  return on;
+}
+
+/// Launches kernel<<<blocks, block, 0, engine_stream()>>>(args...), with programmatic dependent
+/// launch when pdl_launch().
+template <class... Params, class... Args>
+inline void launch_kernel(void (*kernel)(Params...), std::uint32_t blocks, std::uint32_t block, Args&&... args) {
+  if (!pdl_launch()) {
+    kernel<<<blocks, block, 0, engine_stream()>>>(std::forward<Args>(args)...);
+    return;
+  }
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(blocks);
+  cfg.blockDim = dim3(block);
+  cfg.dynamicSmemBytes = 0;
+  cfg.stream = engine_stream();
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = 1;
+  (void)cudaLaunchKernelEx(&cfg, kernel, std::forward<Args>(args)...);  // (errors: check_cuda after)
 }
 
 /// Lanes per row walk (System::launch_walks): 16 unless BIODEM_GPU_ROW_LANES says 1 (one
@@ -547,7 +591,7 @@ struct System {
     const std::uint64_t blocks = (static_cast<std::uint64_t>(n) + block - 1) / block;
     if (blocks * block > 0xffffffffull)
       throw Error("GPU engine: a kernel over " + std::to_string(n) + " items exceeds 2^32 threads (32-bit indices)");
-    for_each_index<<<static_cast<std::uint32_t>(blocks), block, 0, engine_stream()>>>(n, f);
+    launch_kernel(for_each_index<F>, static_cast<std::uint32_t>(blocks), block, n, f);
     check_cuda("a kernel launch");
   }
   /// Row walks (kernels.hpp, walk_row) over n items: a group of row lanes per item
@@ -564,7 +608,7 @@ struct System {
     if (threads + block - 1 > 0xffffffffull)  // (thread indices are 32-bit, the grid rounded up included)
       throw Error("GPU engine: " + std::to_string(n) + " row walks of " + std::to_string(1u << log2) +
                   " lanes exceed 2^32 threads; set BIODEM_GPU_ROW_LANES lower");
-    for_each_walk<<<static_cast<std::uint32_t>((threads + block - 1) / block), block, 0, engine_stream()>>>(n, w, log2);
+    launch_kernel(for_each_walk<W>, static_cast<std::uint32_t>((threads + block - 1) / block), block, n, w, log2);
     check_cuda("a kernel launch");
   }
   /// The row lanes, as run.log names them.
@@ -675,6 +719,7 @@ struct WarpGroup {
 /// the block), and its lanes leave together (the item is the group's).
 template <class W>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2) {
+  after_previous_kernel();
   const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
   if (item >= n) return;
   walk_row_lanes(w, item, WarpGroup::of_thread(lanes_log2));
@@ -686,6 +731,7 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
 template <class B>
 __global__ void __launch_bounds__(kMostThreadsPerBlock)
     for_each_row_build(std::uint32_t n, B b, std::uint32_t lanes_log2, std::uint32_t scratch_bytes) {
+  after_previous_kernel();
   extern __shared__ __align__(16) unsigned char row_build_shared[];
   const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
   if (item >= n) return;
@@ -740,6 +786,8 @@ class NamedErrorsEngine final : public DeviceEngine {
     return thrust_errors_named("a kinetic energy sum", [&] { return e_.translational_kinetic_energy_j(); });
   }
   void sync_walls() override { thrust_errors_named("a wall update", [&] { e_.sync_walls(); }); }
+  void set_retime_every(std::uint64_t steps) override { e_.set_retime_every(steps); }
+  void retime_kernels() override { thrust_errors_named("a new timing of the contact kernels", [&] { e_.retime_kernels(); }); }
   std::string device_name() const override { return e_.device_name(); }
   void set_check_every(std::uint32_t steps) override { e_.set_check_every(steps); }
   std::uint64_t list_builds() const override { return e_.list_builds(); }
@@ -778,6 +826,7 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   {
     const LaunchSwitches sw = launch_switches();  // (checked: BIODEM_GPU_BLOCK, _ROW_LANES, _BUILD_LANES)
     launch_block() = sw.block;
+    pdl_launch() = sw.pdl;  // (and the device's compute capability, below)
     row_lanes_log2() = sw.row_lanes_log2;
     build_lanes_log2() = sw.build_lanes_log2;
   }
@@ -793,6 +842,7 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   if (prop.major < 8)
     throw Error(std::string("--device gpu: ") + prop.name + " has compute capability " + std::to_string(prop.major) +
                 "." + std::to_string(prop.minor) + "; this build has kernels for 8.0 and 9.0 (set CMAKE_CUDA_ARCHITECTURES)");
+  if (prop.major < 9) pdl_launch() = false;
   const std::string name = std::string(prop.name) + " (sm_" + std::to_string(prop.major) +
                            std::to_string(prop.minor) + ", " + std::to_string(prop.multiProcessorCount) +
                            " SMs, CUDA)";

@@ -222,15 +222,18 @@ class Engine final : public DeviceEngine {
     if (!timed_choice())
       return set + ", by the sphere count (" + (use_entry_kernels() ? "below " : "at least ") +
              std::to_string(kEntryForcesBelow) + ")";
-    if (tuning_under_way()) return set + " for now: the timing of the sets is under way";
+    if (tuning_under_way())
+      return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
+             " choice(s) in the run so far)";
     const double walk = std::min(tuning_.median[1], tuning_.median[2]);
     return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
-           ", the fastest when the sets were timed over the first " + std::to_string(tuning_.steps) +
-           " steps after the last upload (median of " + std::to_string(kTuneIntervals / kTuneSets) +
+           ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
+           " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
            System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
            "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step (" +
-           std::to_string(tuning_.uploads) + " choice(s) in the run)";
+           std::to_string(tuning_.choices) + " choice(s) in the run: after each upload, at each phase start and every " +
+           std::to_string(retime_every_) + " steps)";
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
@@ -260,6 +263,10 @@ class Engine final : public DeviceEngine {
   double kinetic_energy_j() override;
   double translational_kinetic_energy_j() override;
   void sync_walls() override;
+  void retime_kernels() override {
+    if (timed_choice() && !tuning_under_way()) restart_tuning();
+  }
+  void set_retime_every(std::uint64_t steps) override { retime_every_ = steps ? steps : 1; }
 
  private:
   BodyArrays body_arrays() {
@@ -485,17 +492,33 @@ class Engine final : public DeviceEngine {
   /// step runs until the next upload (the median, so that one run slowed by something else does
   /// not decide). All give the
   /// same bits, so the choice changes no result. (On CPU threads both walks are the same code.)
+  /// The sets are timed again at the start of each phase (retime_kernels) and after every
+  /// kRetimeSteps steps of the chosen set (set_retime_every): the first timing after an upload sees the bed as
+  /// inserted (few contacts), where the sets' order can differ from that of a bed at rest (H100,
+  /// glass_small: the row walk in one thread and the entry kernels within 1 % over the first 160
+  /// steps, 25 and 18 us/step at rest). A timing costs about 160 steps of the slower sets.
   static constexpr std::uint32_t kTuneSets = 4;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
                                                  // [3] entries with the sums by the row lanes
   static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
+  static constexpr std::uint64_t kRetimeSteps = 20000;
+  std::uint64_t retime_every_ = kRetimeSteps;
   struct Tuning {
     std::uint32_t intervals = 0;                // timed so far since the upload
     double per_step[kTuneIntervals] = {};       // seconds per step of each (set: interval % kTuneSets)
     std::uint64_t steps = 0;
     double median[kTuneSets] = {};               // per set, once all are timed
     std::uint32_t choice = 0;                    // the set chosen, once all are timed
-    std::uint32_t uploads = 0;                   // choices made (one per upload that got that far)
+    std::uint32_t choices = 0;                   // choices made in the run so far
+    std::uint64_t since_choice = 0;              // steps run with the set chosen
   } tuning_;
+  /// The sets are timed from the next run of steps on; the entry kernels' buffers are made to
+  /// fit the rows (a list build enlarges them only while they are in use or timed).
+  void restart_tuning() {
+    const std::uint32_t choices = tuning_.choices;
+    tuning_ = Tuning{};
+    tuning_.choices = choices;
+    if (timed_choice() && rows_.length.size() == ns()) ensure_entry_buffers();
+  }
   typename System::Timer timer_;
   bool timed_choice() const {
     return forces_mode_ == ForcesMode::timed || (forces_mode_ == ForcesMode::automatic && System::kTimedChoice);
@@ -536,6 +559,8 @@ class Engine final : public DeviceEngine {
     launch(rows_.cap * ns(), MirrorHistory{rows_.arrays(), raw<std::uint32_t>(s_sid_), ns()});
   }
   /// The entry kernels' buffers fit rows of `cap` and the walls.
+  /// Enlarges the entry kernels' buffers (only) to fit rows of rows_.cap and the walls.
+  void ensure_entry_buffers();
   bool entries_ready_for(std::uint32_t cap) const {
     return entry_force_.size() >= static_cast<std::size_t>(cap) * ns() &&
            wall_force_.size() >= static_cast<std::size_t>(n_walls_) * ns();
@@ -619,11 +644,7 @@ inline void Engine::upload() {
   mirror_missing_[0] = 0u;
   motion_queued_ = false;  // (of the state before the upload)
   settle_queued_ = false;
-  {
-    const std::uint32_t choices = tuning_.uploads;
-    tuning_ = Tuning{};
-    tuning_.uploads = choices;
-  }
+  restart_tuning();
   // (SumEntriesKickDrift takes body k's sphere to be sphere k)
   single_spheres_ = true;
   for (std::size_t k = 0; k < b.size(); ++k)
@@ -910,14 +931,18 @@ inline void Engine::build_list(const Box* known_box) {
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
-  if ((use_entry_kernels() || tuning_under_way()) && !entries_ready_for(rows_.cap)) {
-    entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
-    entry_torque_.resize(entry_force_.size());
-    wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
-    wall_torque_.resize(wall_force_.size());
-    invalidate_graphs();
-  }
+  if (use_entry_kernels() || tuning_under_way()) ensure_entry_buffers();
   ++builds_;
+}
+
+inline void Engine::ensure_entry_buffers() {
+  if (entries_ready_for(rows_.cap)) return;
+  const std::uint32_t n = ns();
+  entry_force_.resize(std::max(entry_force_.size(), static_cast<std::size_t>(rows_.cap) * n));
+  entry_torque_.resize(entry_force_.size());
+  wall_force_.resize(std::max(wall_force_.size(), static_cast<std::size_t>(n_walls_) * n));
+  wall_torque_.resize(wall_force_.size());
+  invalidate_graphs();
 }
 
 
@@ -1127,10 +1152,13 @@ inline void Engine::run_units(std::uint32_t units) {
       tuning_.choice = 0;  // ties: the entry kernels, then the row lanes
       for (std::uint32_t set = 1; set < kTuneSets; ++set)
         if (tuning_.median[set] < tuning_.median[tuning_.choice]) tuning_.choice = set;
-      ++tuning_.uploads;
+      ++tuning_.choices;
     }
     // The row walk reads both entries of a pair: after entry steps, hand it the history.
     if (entries && !entries_ready()) mirror_history();
+  } else if (timed_choice()) {
+    tuning_.since_choice += units;
+    if (tuning_.since_choice >= retime_every_) restart_tuning();
   }
 }
 

@@ -918,7 +918,12 @@ struct ContactArgs {
   /// than once per entry. The additions stay in row order.
   /// The first chunk is loaded whatever the row's length (entries below rows.cap are in the
   /// arrays; those past the length are not added), so that its loads do not wait for the length.
-  static constexpr std::uint32_t kChunk = 8;
+#ifndef BIODEM_GPU_SUM_CHUNK
+#define BIODEM_GPU_SUM_CHUNK 4
+#endif
+  // 4 (H100, 2026-11-26: the entry kernels 16.3/30.4/47.1 us/step on the three bench drums against
+  // 18.2/36.3/52.9 with 8, whose 128 registers spilled); -DBIODEM_GPU_SUM_CHUNK=N for timing builds.
+  static constexpr std::uint32_t kChunk = BIODEM_GPU_SUM_CHUNK;
   BIODEM_HD void sum_entries(std::uint32_t a, std::uint32_t sid_a, std::uint32_t len, Vec3& f, Vec3& t,
                              std::uint32_t& count) const {
     for (std::uint32_t q0 = 0; q0 == 0 || q0 < len; q0 += kChunk) {
