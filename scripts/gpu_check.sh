@@ -32,8 +32,8 @@
 #      positions within stated tolerances;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
-#      row and the single-sphere body kernel with its sums by the row lanes byte-identical, CPU
-#      engine agreement;
+#      row, the single-sphere body kernel with its sums by the row lanes and the row walk with
+#      the body update (BIODEM_GPU_WALK_KICK=1) byte-identical, CPU engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
 # It exits non-zero if any check fails.
@@ -51,7 +51,8 @@
 #   GPU_CHECK_SANITIZER_JOBS  the sanitizer runs of check 2 as tool:kernels (kernels: auto,
 #                        entries, rows1: the row walk by one thread per sphere, sumlanes:
 #                        the entry kernels with their sums by the row lanes, spheres: the
-#                        same on the wide-row scene of single spheres); default the nine of
+#                        same on the wide-row scene of single spheres, walkkick: the row
+#                        walk with the body update on that scene); default the ten of
 #                        docs/gpu.md section 6, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
@@ -387,6 +388,8 @@ run_biodem wide_cpu "$wide" "$OUT/wide_cpu" --device cpu; wc=$?
 BIODEM_GPU_BUILD_LANES=1 run_biodem wide_build1 "$wide" "$OUT/wide_build1" --device "$DEVICE"; wd=$?
 # (single-sphere bodies: the entry kernels' sums inside the body kernel, by the row lanes)
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem wide_sum_lanes "$wide" "$OUT/wide_sum_lanes" --device "$DEVICE"; we=$?
+# (and the row walk with the body update in one kernel, the sphere motion in two buffers)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem wide_walk_kick "$wide" "$OUT/wide_walk_kick" --device "$DEVICE"; wk=$?
 if [ $wa -ne 0 ] || [ $wb -ne 0 ] || [ $wc -ne 0 ]; then
   record "6. wider-row rebuild" FAIL "a run failed (logs/wide_*.txt)"
 else
@@ -402,6 +405,10 @@ else
   if [ $we -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_SUM_LANES=1 failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_sum_lanes"); then detail="$detail; entry sums by the row lanes (BIODEM_GPU_SUM_LANES=1) byte-identical"
   else ok=0; detail="$detail; entry sums by the row lanes differ: $(echo $diff)"; fi
+  if [ $wk -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_WALK_KICK=1 failed"
+  elif ! grep -q 'ForcesKickDrift' "$OUT/wide_walk_kick/run.log"; then ok=0; detail="$detail; BIODEM_GPU_WALK_KICK=1 did not run ForcesKickDrift"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick"); then detail="$detail; row walk with the body update (BIODEM_GPU_WALK_KICK=1) byte-identical"
+  else ok=0; detail="$detail; row walk with the body update differs: $(echo $diff)"; fi
   if cmp_detail=$(compare_engines wide "$OUT/wide_cpu" "$OUT/wide_a" 0.5 0.05); then detail="$detail; vs CPU: $cmp_detail"; else ok=0; detail="$detail; vs CPU: $cmp_detail"; fi
   [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
 fi
@@ -414,7 +421,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -424,6 +431,8 @@ if [ "$DEVICE" = gpu ]; then
       spheres) what=", entry kernels with the sums by the row lanes in the body kernel"
                envs=(BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1)
                scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
+      walkkick) what=", row walk with the body update (two buffers)"; envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1)
+                scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool ($scene_name$what)"

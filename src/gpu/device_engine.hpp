@@ -159,6 +159,12 @@ class DeviceEngine {
   /// SumEntriesKickDriftWalk) or by one thread per sphere; the same bits. By default one of the
   /// timed sets on a GPU, one thread on CPU threads; BIODEM_GPU_SUM_LANES=1|0|auto or this switch.
   virtual void set_sum_lanes(bool on) = 0;
+  /// In scenes of single-sphere bodies, the row walk and the body update in one kernel
+  /// (ForcesKickDrift, the sphere motion in two buffers swapped every step) or apart; the same
+  /// bits. By default one of the timed sets on a GPU, apart on CPU threads;
+  /// BIODEM_GPU_WALK_KICK=1|0|auto or this switch. walk_kick_steps() counts its steps.
+  virtual void set_walk_kick(bool on) = 0;
+  virtual std::uint64_t walk_kick_steps() const = 0;
   /// Which contact kernels run and why (run.log): set by a switch, by the sphere count, or timed
   /// (BIODEM_GPU_FORCES=timed, and auto on a GPU: after each upload the first runs of steps
   /// between list checks alternate the two sets, each timed on the device, and the faster runs

@@ -806,6 +806,10 @@ class NamedErrorsEngine final : public DeviceEngine {
   void set_sum_lanes(bool on) override {
     thrust_errors_named("a kernel switch", [&] { e_.set_sum_lanes(on); });
   }
+  void set_walk_kick(bool on) override {
+    thrust_errors_named("a kernel switch", [&] { e_.set_walk_kick(on); });
+  }
+  std::uint64_t walk_kick_steps() const override { return e_.walk_kick_steps(); }
   std::string contact_kernels() const override { return e_.contact_kernels(); }
   std::uint64_t entry_force_passes() const override { return e_.entry_force_passes(); }
   std::string profile_report() const override { return e_.profile_report(); }

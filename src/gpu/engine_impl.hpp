@@ -133,6 +133,16 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_SUM_LANES = '" + v + "': expected 0, 1 or auto");
       sum_lanes_mode_ = v == "1" ? SumLanes::on : v == "0" ? SumLanes::off : SumLanes::automatic;
     }
+    // BIODEM_GPU_WALK_KICK=1|0|auto: in scenes of single-sphere bodies, the row walk and the body
+    // update in one kernel (ForcesKickDrift, the sphere motion in two buffers), or apart (Forces,
+    // ReduceKickDrift); auto: a fifth set of the timed choice on a GPU, apart elsewhere. The same
+    // bits either way.
+    if (const char* wk = std::getenv("BIODEM_GPU_WALK_KICK"); wk && *wk) {
+      const std::string v(wk);
+      if (v != "0" && v != "1" && v != "auto")
+        throw Error("BIODEM_GPU_WALK_KICK = '" + v + "': expected 0, 1 or auto");
+      walk_kick_mode_ = v == "1" ? WalkKick::on : v == "0" ? WalkKick::off : WalkKick::automatic;
+    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -198,6 +208,11 @@ class Engine final : public DeviceEngine {
     sum_lanes_mode_ = on ? SumLanes::on : SumLanes::off;
     invalidate_graphs();
   }
+  void set_walk_kick(bool on) override {
+    walk_kick_mode_ = on ? WalkKick::on : WalkKick::off;
+    invalidate_graphs();
+  }
+  std::uint64_t walk_kick_steps() const override { return walk_kick_units_; }
   void set_entry_forces(bool on) override {
     invalidate_graphs();
     if (rows_.length.size() == ns() && rows_.mirror.size() == rows_.j.size()) mirror_history();
@@ -213,7 +228,8 @@ class Engine final : public DeviceEngine {
     };
     const std::string set = use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
-                                                : "per-sphere row walk (Forces)";
+                                                : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
+                                                              : "per-sphere row walk (Forces)";
     switch (forces_mode_) {
       case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";
       case ForcesMode::rows: return set + ", set by BIODEM_GPU_FORCES=rows or a test";
@@ -225,13 +241,15 @@ class Engine final : public DeviceEngine {
     if (tuning_under_way())
       return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
              " choice(s) in the run so far)";
-    const double walk = std::min(tuning_.median[1], tuning_.median[2]);
+    const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
     return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
            System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
-           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step (" +
+           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk in one " +
+           "thread with the body update " + us(tuning_.median[4]) +
+           (single_spheres_ ? " us/step (" : " us/step (as one thread: not a scene of single spheres; ") +
            std::to_string(tuning_.choices) + " choice(s) in the run: after each upload, at each phase start and every " +
            std::to_string(retime_every_) + " steps)";
   }
@@ -327,8 +345,18 @@ class Engine final : public DeviceEngine {
   void first_half();
   void second_half();
   /// The second half of step c and the first half of step c + 1 fused (outside criterion
-  /// phases): forces, then ReduceKickDrift.
-  void fused_unit();
+  /// phases): forces, then ReduceKickDrift. With walk_kick(), one ForcesKickDrift that reads the
+  /// sphere motion from one buffer and writes it to the other: `from_second` says which.
+  void fused_unit(bool from_second);
+  template <bool Cohesion, bool Rolling>
+  void launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd);
+  /// SphereArrays with the sphere motion (centres, velocities, spins) of the second buffer.
+  SphereArrays second_motion(SphereArrays a) {
+    a.position = raw<Vec3>(s_pos2_);
+    a.velocity = raw<Vec3>(s_vel2_);
+    a.omega = raw<Vec3>(s_omega2_);
+    return a;
+  }
   /// `units` times (second half of a step, first half of the next): the launches between two
   /// list checks, with no host wait (on CUDA: replayed as one CUDA graph when it can).
   void run_units(std::uint32_t units);
@@ -497,8 +525,9 @@ class Engine final : public DeviceEngine {
   /// inserted (few contacts), where the sets' order can differ from that of a bed at rest (H100,
   /// glass_small: the row walk in one thread and the entry kernels within 1 % over the first 160
   /// steps, 25 and 18 us/step at rest). A timing costs about 160 steps of the slower sets.
-  static constexpr std::uint32_t kTuneSets = 4;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
-                                                 // [3] entries with the sums by the row lanes
+  static constexpr std::uint32_t kTuneSets = 5;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
+                                                 // [3] entries with the sums by the row lanes, [4] walk, one
+                                                 // thread, with the body update (single spheres; else as [2])
   static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
   static constexpr std::uint64_t kRetimeSteps = 20000;
   std::uint64_t retime_every_ = kRetimeSteps;
@@ -537,7 +566,20 @@ class Engine final : public DeviceEngine {
     return tuned_set() == 0 || tuned_set() == 3;
   }
   /// The row walk in one thread per sphere instead of the row lanes (the timed choice only).
-  bool walk_single() const { return timed_choice() && !use_entry_kernels() && tuned_set() == 2; }
+  bool walk_single() const {
+    return timed_choice() && !use_entry_kernels() && (tuned_set() == 2 || tuned_set() == 4);
+  }
+  /// In single-sphere scenes, the row walk fused with the body update (ForcesKickDrift;
+  /// BIODEM_GPU_WALK_KICK; the timed choice's fifth set), in the fused units of a row walk.
+  enum class WalkKick { automatic, off, on };
+  WalkKick walk_kick_mode_ = WalkKick::automatic;
+  bool walk_kick() const {
+    if (!single_spheres_ || entries_ready()) return false;
+    if (walk_kick_mode_ != WalkKick::automatic) return walk_kick_mode_ == WalkKick::on;
+    return timed_choice() && tuned_set() == 4;
+  }
+  std::uint64_t walk_kick_units_ = 0;
+  vec<Vec3> s_pos2_, s_vel2_, s_omega2_;  // the sphere motion's second buffer (ForcesKickDrift)
   /// The entry kernels' per-sphere sums by the row lanes (BIODEM_GPU_SUM_LANES; the timed
   /// choice's fourth set).
   enum class SumLanes { automatic, off, on };
@@ -665,6 +707,11 @@ inline void Engine::upload() {
   to_device(s_pos_, s.position_m);
   to_device(s_vel_, s.velocity_m_s);
   to_device(s_omega_, s.angular_velocity_rad_s);
+  if (single_spheres_) {  // (ForcesKickDrift's second buffer: written before it is read)
+    s_pos2_.resize(n);
+    s_vel2_.resize(n);
+    s_omega2_.resize(n);
+  }
   to_device(s_offset_, s.offset_body_m);
   to_device(s_force_, s.force_n);
   to_device(s_torque_, s.torque_n_m);
@@ -1069,8 +1116,22 @@ inline void Engine::second_half() {
                          criterion_.min_steps, criterion_.hold_steps});
 }
 
-inline void Engine::fused_unit() {
+inline void Engine::fused_unit(bool from_second) {
   const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()};
+  if (walk_kick()) {  // glass beads, row walk: the body update inside the walk, two buffers
+    ContactArgs c = contact_args(halt());
+    ReduceKickDrift out = rkd;
+    if (from_second) c.s = second_motion(c.s);
+    else out.s = second_motion(out.s);
+    if (cohesion_) {
+      if (rolling_) launch_walk_kicks<true, true>(c, out);
+      else launch_walk_kicks<true, false>(c, out);
+    } else {
+      if (rolling_) launch_walk_kicks<false, true>(c, out);
+      else launch_walk_kicks<false, false>(c, out);
+    }
+    return;
+  }
   if (single_spheres_ && entries_ready()) {  // glass beads: the sums inside ReduceKickDrift
     const ContactArgs c = contact_args(halt());
     launch_pair_entries(c);
@@ -1080,6 +1141,14 @@ inline void Engine::fused_unit() {
   }
   compute_forces(halt());
   launch(nb(), rkd);
+}
+
+template <bool Cohesion, bool Rolling>
+void Engine::launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd) {
+  ForcesKickDrift<Cohesion, Rolling> w;
+  static_cast<ContactArgs&>(w) = c;
+  w.rkd = rkd;
+  launch_walks(nb(), w);
 }
 
 inline void Engine::launch_pair_entries(const ContactArgs& c) {
@@ -1097,12 +1166,21 @@ inline void Engine::run_units(std::uint32_t units) {
   // Outside a criterion phase nothing runs between ReduceKick of step c and KickDriftSpheres of
   // step c + 1: one fused kernel (ReduceKickDrift) does both, with the same bits.
   const bool fused = fuse_ && !settle_active_;
-  auto record = [this, units, fused] {
+  // ForcesKickDrift's units alternate the two buffers of the sphere motion (unit u reads the
+  // second when u is odd); after an odd number of units the motion is copied back to the first,
+  // which holds it between runs.
+  const bool two_buffers = fused && walk_kick();
+  auto record = [this, units, fused, two_buffers] {
     for (std::uint32_t u = 0; u < units; ++u) {
+      const bool from_second = two_buffers && u % 2 == 1;
       const bool queue_for_check = u + 1 == units && ns() && queued_checks_;  // (read at the next check)
-      if (queue_for_check) motion_.enqueue(ns(), motion_of_sphere(), MotionMax{}, Motion{});
+      if (queue_for_check) {
+        SphereMotion m = motion_of_sphere();
+        if (from_second) m.s = second_motion(m.s);
+        motion_.enqueue(ns(), m, MotionMax{}, Motion{});
+      }
       if (fused) {
-        fused_unit();
+        fused_unit(from_second);
       } else {
         second_half();
         // The settle state after the last step's update (a criterion phase never fuses; the
@@ -1111,9 +1189,13 @@ inline void Engine::run_units(std::uint32_t units) {
         first_half();
       }
     }
+    if (two_buffers && units % 2 == 1)
+      launch(ns(), CopySphereMotion{raw<Vec3>(s_pos2_), raw<Vec3>(s_vel2_), raw<Vec3>(s_omega2_), raw<Vec3>(s_pos_),
+                                    raw<Vec3>(s_vel_), raw<Vec3>(s_omega_)});
   };
   const bool entries = entries_ready();
   if (fused) fused_units_ += units;
+  if (two_buffers) walk_kick_units_ += units;
   if (fused && single_spheres_ && entries) summed_in_kick_ += units;
   if (entries) entry_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
@@ -1122,6 +1204,7 @@ inline void Engine::run_units(std::uint32_t units) {
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
                             (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
+                            (two_buffers ? 1u << 14 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();

@@ -1153,23 +1153,27 @@ struct Forces : ContactArgs {
   /// threads always): walk_row's contacts in walk order with the same operations, each entry's
   /// head loaded one entry ahead (the first with the sphere's stable id and row length), so that
   /// the thread waits for one round of loads per entry instead of two. The same bits as walk_row.
-  BIODEM_HD void operator()(std::uint32_t a) const {
-    if (halted(halt)) return;
-    const std::uint32_t sid_a = s.sid[a], len = rows.length[a];
-    EntryHead next = entry_head(a);  // entry 0 (in the arrays whatever the row's length)
+  BIODEM_HD void operator()(std::uint32_t a) const { walk_prefetched(*this, a); }
+  /// That walk for W, Forces or a kernel derived from it: W::walk_end ends it.
+  template <class W>
+  BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a) {
+    if (halted(w.halt)) return;
+    const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
+    EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     Vec3 f, t;
     std::uint32_t count = 0;
     for (std::uint32_t v = 0; v < len; ++v) {
       const EntryHead e = next;
-      if (v + 1 < len) next = entry_head((v + 1) * n + a);
+      if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
       RowContact r;
       bool a_low = false;
-      if (pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * n + a, r.force, r.torque, a_low)) r.kind = a_low ? 1 : 2;
+      if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
+        r.kind = a_low ? 1 : 2;
       walk_add(r, f, t, count);
     }
-    const WalkStart st{a, sid_a, len, len + n_walls};
-    for (std::uint32_t v = len; v < st.total; ++v) walk_add(walk_entry(st, v), f, t, count);
-    walk_end(a, st, f, t, count);
+    const WalkStart st{a, sid_a, len, len + w.n_walls};
+    for (std::uint32_t v = len; v < st.total; ++v) walk_add(w.walk_entry(st, v), f, t, count);
+    w.walk_end(a, st, f, t, count);
   }
 };
 
@@ -1318,6 +1322,38 @@ struct SumEntriesKickDrift {
     std::uint32_t count = 0;
     c.sum_entries(k, c.s.sid[k], c.rows.length[k], fs, ts, count);
     finish_single_sphere(c, rkd, k, fs, ts, count);
+  }
+};
+
+/// In a scene of single-sphere bodies, the row walk (Forces) of sphere k and ReduceKickDrift of
+/// body k in one thread (or lane 0 of the walk's group): one launch and one pass over the bodies
+/// fewer per step (BIODEM_GPU_WALK_KICK). The walk reads the neighbours' centres, velocities and
+/// spins, which the body update of another thread changes: so it reads them from one buffer
+/// (the ContactArgs' spheres, the state the step's forces see) and the update writes them to
+/// another (rkd.s: its position, velocity and omega arrays the other buffer, its other arrays
+/// those of the ContactArgs), and the engine swaps the two every step (Engine::fused_unit). Every
+/// other array a thread writes is its own sphere's or body's (its row's entries and wall slots,
+/// its force, torque and contact count, its body's state). The same operations in the same order
+/// as Forces then ReduceKickDrift (finish_single_sphere): the same bits. Only for bodies of one
+/// sphere whose sphere k is body k's (as SumEntriesKickDrift).
+template <bool Cohesion, bool Rolling>
+struct ForcesKickDrift : Forces<Cohesion, Rolling> {
+  ReduceKickDrift rkd;
+  BIODEM_HD void walk_end(std::uint32_t, const WalkStart& st, const Vec3& f, const Vec3& t, std::uint32_t count) const {
+    finish_single_sphere(*this, rkd, st.a, f, t, count);
+  }
+  BIODEM_HD void operator()(std::uint32_t a) const { Forces<Cohesion, Rolling>::walk_prefetched(*this, a); }
+};
+
+/// The sphere motion that ForcesKickDrift wrote to the other buffer, copied back (after an odd
+/// number of its steps, so that the engine's arrays hold the state between runs).
+struct CopySphereMotion {
+  const Vec3 *position, *velocity, *omega;
+  Vec3 *position_to, *velocity_to, *omega_to;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    position_to[i] = position[i];
+    velocity_to[i] = velocity[i];
+    omega_to[i] = omega[i];
   }
 };
 
