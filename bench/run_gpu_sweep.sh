@@ -5,7 +5,9 @@
 #   2. bench/run_gpu_bench.sh on the GPU with BIODEM_GPU_PROFILE=1 (where the whole runs' step
 #      time went: step kernels, list checks, list builds; OUT/profile.txt), with the list checks
 #      waiting for their reduction (BIODEM_GPU_QUEUED_CHECK=0), and for several values of
-#      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk), the list
+#      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk),
+#      BIODEM_GPU_WALK_KICK (the row walk with the body update, single-sphere drums),
+#      BIODEM_GPU_PDL (programmatic dependent launch), the list
 #      build by one thread per row (BIODEM_GPU_BUILD_LANES=1, profiled beside the default),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
 #      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
@@ -90,11 +92,12 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_PROFILE=1 BIODEM_GPU_PROFILE=1+BIODEM_GPU_BUILD_LANES=1 \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_PDL=0 \
+  BIODEM_GPU_PROFILE=1 BIODEM_GPU_PROFILE=1+BIODEM_GPU_BUILD_LANES=1 \
   BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows \
-  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
-  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 \
-  BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=32 \
+  BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()
