@@ -846,7 +846,16 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   if (prop.major < 8)
     throw Error(std::string("--device gpu: ") + prop.name + " has compute capability " + std::to_string(prop.major) +
                 "." + std::to_string(prop.minor) + "; this build has kernels for 8.0 and 9.0 (set CMAKE_CUDA_ARCHITECTURES)");
+  // Programmatic launches need the kernels' wait (after_previous_kernel), which is compiled only
+  // for compute_90 and later: not on an older device, nor from a build without sm_90 code (PTX
+  // of an older target run on a Hopper GPU).
   if (prop.major < 9) pdl_launch() = false;
+  if (pdl_launch()) {
+    cudaFuncAttributes fa{};
+    if (cudaFuncGetAttributes(&fa, for_each_index<KickDriftSpheres>) != cudaSuccess || fa.ptxVersion < 90)
+      pdl_launch() = false;
+    (void)cudaGetLastError();
+  }
   const std::string name = std::string(prop.name) + " (sm_" + std::to_string(prop.major) +
                            std::to_string(prop.minor) + ", " + std::to_string(prop.multiProcessorCount) +
                            " SMs, CUDA)";

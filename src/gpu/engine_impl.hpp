@@ -540,13 +540,14 @@ class Engine final : public DeviceEngine {
     std::uint32_t choices = 0;                   // choices made in the run so far
     std::uint64_t since_choice = 0;              // steps run with the set chosen
   } tuning_;
-  /// The sets are timed from the next run of steps on; the entry kernels' buffers are made to
-  /// fit the rows (a list build enlarges them only while they are in use or timed).
-  void restart_tuning() {
+  /// The sets are timed from the next run of steps on; with `size_buffers`, the entry kernels'
+  /// buffers are made to fit the rows now (a list build enlarges them only while they are in
+  /// use or timed; upload's own build does it for the new scene).
+  void restart_tuning(bool size_buffers = true) {
     const std::uint32_t choices = tuning_.choices;
     tuning_ = Tuning{};
     tuning_.choices = choices;
-    if (timed_choice() && rows_.length.size() == ns()) ensure_entry_buffers();
+    if (size_buffers && timed_choice() && rows_.length.size() == ns()) ensure_entry_buffers();
   }
   typename System::Timer timer_;
   bool timed_choice() const {
@@ -686,7 +687,7 @@ inline void Engine::upload() {
   mirror_missing_[0] = 0u;
   motion_queued_ = false;  // (of the state before the upload)
   settle_queued_ = false;
-  restart_tuning();
+  restart_tuning(false);  // (the list build below sizes the entry buffers for the new scene)
   // (SumEntriesKickDrift takes body k's sphere to be sphere k)
   single_spheres_ = true;
   for (std::size_t k = 0; k < b.size(); ++k)

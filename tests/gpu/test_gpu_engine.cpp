@@ -846,9 +846,10 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
   EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
 }
 
-// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 16 runs of steps
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 20 runs of steps
 // between list checks cycle through the entry kernels, the row walk with the row lanes, the
-// row walk in one thread per sphere and the entry kernels with their sums by the row lanes,
+// row walk in one thread per sphere, the entry kernels with their sums by the row lanes and the
+// row walk in one thread with the body update (in this scene of clumps: as the row walk),
 // timed; the fastest runs on.
 // Each switch from the entry kernels to the row walk hands over the history (the row walk reads
 // both entries of a pair). The packing stepped that way, with an upload (a new round of trials)
@@ -883,44 +884,52 @@ TEST(GpuEngine, TimedKernelChoiceHandsTheHistoryOverBetweenTrials) {
 // with re-timings every 60 steps and one asked for, is bit-identical after every run to the
 // packing stepped with the row walk throughout, and makes more choices than the 2 uploads'.
 TEST(GpuEngine, TimedKernelChoiceIsTimedAgainAtPhasesAndPeriodically) {
-  auto a = packing(0.5e-3), b = packing(0.5e-3);
-  ::setenv("BIODEM_GPU_FORCES", "timed", 1);
-  auto ea = gpu_engine(*a);
-  ::unsetenv("BIODEM_GPU_FORCES");
-  auto eb = gpu_engine(*b);
-  eb->set_entry_forces(false);
-  ea->set_check_every(3);
-  eb->set_check_every(3);
-  ea->set_retime_every(60);
-  ea->upload();
-  eb->upload();
-  ea->retime_kernels();  // (under way after the upload: no second restart)
-  const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
-  const std::string how = ea->contact_kernels();
-  std::printf("[measured] re-timed choice: %llu steps; %s\n", static_cast<unsigned long long>(steps), how.c_str());
-  // 452 steps, an upload at 223; a timing takes about 45 steps (16 runs between list checks):
-  // choices at about 45 and 150 (timed again after 60 steps of the first), 270 (after the
-  // upload) and 375, a timing under way at the end: 4 choices, where without the re-timings
-  // there are 2 (the test above).
-  int choices = 0;
-  const auto at = how.find(" choice(s) in the run");
-  ASSERT_NE(at, std::string::npos) << how;
-  const auto digits = how.find_last_not_of("0123456789", at - 1);
-  ASSERT_EQ(std::sscanf(how.c_str() + digits + 1, "%d", &choices), 1) << how;
-  EXPECT_GE(choices, 4) << how;
-  // retime_kernels after a choice starts a new timing at once
-  ea->set_retime_every(1000000);
-  EXPECT_EQ(ea->advance(60).steps, 60u);  // (the timing under way ends)
-  EXPECT_EQ(eb->advance(60).steps, 60u);
-  ASSERT_EQ(ea->contact_kernels().find("under way"), std::string::npos) << ea->contact_kernels();
-  ea->retime_kernels();
-  EXPECT_NE(ea->contact_kernels().find("the timing of the sets is under way"), std::string::npos)
-      << ea->contact_kernels();
-  EXPECT_EQ(ea->advance(100).steps, 100u);
-  EXPECT_EQ(eb->advance(100).steps, 100u);
-  ea->download(true);
-  eb->download(true);
-  EXPECT_EQ(first_difference(*a, *b), "");
+  for (const bool spheres_only : {false, true}) {  // (spheres: the fifth set is ForcesKickDrift)
+    SCOPED_TRACE(spheres_only ? "spheres" : "needles");
+    auto a = packing(0.5e-3, true, true, spheres_only), b = packing(0.5e-3, true, true, spheres_only);
+    ::setenv("BIODEM_GPU_FORCES", "timed", 1);
+    auto ea = gpu_engine(*a);
+    ::unsetenv("BIODEM_GPU_FORCES");
+    auto eb = gpu_engine(*b);
+    eb->set_entry_forces(false);
+    ea->set_check_every(3);
+    eb->set_check_every(3);
+    ea->set_retime_every(60);
+    ea->upload();
+    eb->upload();
+    ea->retime_kernels();  // (under way after the upload: no second restart)
+    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+    const std::string how = ea->contact_kernels();
+    std::printf("[measured] re-timed choice: %llu steps; %s\n", static_cast<unsigned long long>(steps), how.c_str());
+    // 452 steps, an upload at 223; a timing takes about 60 steps (20 runs between list checks
+    // of at most 3): choices at about 60 and 180 (timed again after 60 steps of the first), 285
+    // (after the upload) and 405: 4 choices, where without the re-timings there are 2 (the test
+    // above).
+    int choices = 0;
+    const auto at = how.find(" choice(s) in the run");
+    ASSERT_NE(at, std::string::npos) << how;
+    const auto digits = how.find_last_not_of("0123456789", at - 1);
+    ASSERT_EQ(std::sscanf(how.c_str() + digits + 1, "%d", &choices), 1) << how;
+    EXPECT_GE(choices, 4) << how;
+    // retime_kernels after a choice starts a new timing at once
+    ea->set_retime_every(1000000);
+    EXPECT_EQ(ea->advance(60).steps, 60u);  // (the timing under way ends)
+    EXPECT_EQ(eb->advance(60).steps, 60u);
+    ASSERT_EQ(ea->contact_kernels().find("under way"), std::string::npos) << ea->contact_kernels();
+    ea->retime_kernels();
+    EXPECT_NE(ea->contact_kernels().find("the timing of the sets is under way"), std::string::npos)
+        << ea->contact_kernels();
+    EXPECT_EQ(ea->advance(100).steps, 100u);
+    EXPECT_EQ(eb->advance(100).steps, 100u);
+    ea->download(true);
+    eb->download(true);
+    EXPECT_EQ(first_difference(*a, *b), "");
+    if (spheres_only) {
+      EXPECT_GT(ea->walk_kick_steps(), 0u);  // (the fifth set's trials ran ForcesKickDrift)
+    } else {
+      EXPECT_EQ(ea->walk_kick_steps(), 0u);
+    }
+  }
 }
 
 // In a scene of single-sphere bodies the fused steps also sum each sphere's contacts inside the
@@ -985,6 +994,8 @@ TEST(GpuEngine, WalkWithTheBodyUpdateGivesTheBitsOfTheWalkAndReduceKickDrift) {
     EXPECT_EQ(r.ea->walk_kick_steps(), r.ea->fused_steps());
     EXPECT_EQ(r.eb->walk_kick_steps(), 0u);
     EXPECT_GT(r.ea->list_builds(), 5u);
+    // (the list checks read the motion from the buffer that holds it: the same rebuilds)
+    EXPECT_EQ(r.ea->list_builds(), r.eb->list_builds());
     const std::string how = r.ea->contact_kernels();
     EXPECT_NE(how.find("ForcesKickDrift"), std::string::npos) << how;
   }
