@@ -258,8 +258,8 @@ done
 [ $fault_ok = 1 ] && record "3h. a device fault ends the run with one line" PASS "$fault_detail" ||
   record "3h. a device fault ends the run with one line" FAIL "$fault_detail"
 # 3i. The two contact kernel sets forced give the bytes of (3); on a GPU also the row walk with
-# 1, 2 and 32 lanes per sphere, each with blocks of 32 and 512 threads (the default: 16 lanes,
-# 128 threads; emulated these switches change nothing and are not run).
+# 1, 2, 16 and 32 lanes per sphere, each with blocks of 32 and 512 threads (the default: 4
+# lanes, 64 threads; emulated these switches change nothing and are not run).
 BIODEM_GPU_FORCES=rows run_biodem needles_rows "$needles" "$OUT/needles_rows" --device "$DEVICE"; sr=$?
 BIODEM_GPU_FORCES=entries run_biodem needles_entries "$needles" "$OUT/needles_entries" --device "$DEVICE"; se=$?
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem needles_sum_lanes "$needles" "$OUT/needles_sum_lanes" --device "$DEVICE"; sl=$?
@@ -272,14 +272,14 @@ elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_file
   lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3)"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
-  for lanes in 1 2 32; do
+  for lanes in 1 2 16 32; do
     for block in 32 512; do
       why=$(variant_same "$OUT/needles_rows" "needles_lanes${lanes}_block$block" BIODEM_GPU_FORCES=rows \
             BIODEM_GPU_ROW_LANES=$lanes BIODEM_GPU_BLOCK=$block) ||
         { lanes_ok=0; lanes_detail="$lanes_detail; $lanes lanes, blocks of $block: $why"; }
     done
   done
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 32 lanes x blocks of 32, 512 byte-identical to 16 lanes, 128"
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 16, 32 lanes x blocks of 32, 512 byte-identical to 4 lanes, 64"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the

@@ -51,7 +51,7 @@ bool cuda_built();
 /// compute capability 9.0 and later; 0: plain launches).
 struct LaunchSwitches {
   std::uint32_t block = 64;  // (H100: 64 faster than 128 by ~1.4 us/step at 20k and 40k spheres, docs/gpu.md)
-  std::uint32_t row_lanes_log2 = 4;    // 16 lanes
+  std::uint32_t row_lanes_log2 = 2;    // 4 lanes (H100: faster than 16 on every bench drum, docs/gpu.md)
   std::uint32_t build_lanes_log2 = 4;  // 16 lanes
   bool pdl = true;                     // BIODEM_GPU_PDL: programmatic dependent launch (sm_90+)
 };

@@ -1102,19 +1102,57 @@ BIODEM_HD inline void walk_row(const W& w, std::uint32_t item) {
 /// walk_row: the same bits (RowWalkLanes.GroupsOfThreadLanesGiveTheSumsOfOneThread). Every lane
 /// of a group makes the same rounds and shuffles: the item, walk_begin and st.total are the
 /// group's.
+///
+/// A walker that declares kHeadsAhead (Forces) has each lane load the head of its next row entry
+/// (v + lanes) while it evaluates entry v, as the walk by one thread does one entry ahead: it then
+/// provides head_limit() (entries below it are in the arrays whatever the row's length),
+/// walk_head(item, v) and walk_entry_from(st, v, head) for v < st.len (the same contact as
+/// walk_entry(st, v), from the head loaded before). The first head is loaded before walk_begin's
+/// loads are used. The same contacts, so the same bits.
+template <class W, class = void>
+struct WalksHeadsAhead {
+  static constexpr bool value = false;
+};
+template <class W>
+struct WalksHeadsAhead<W, decltype(void(W::kHeadsAhead))> {
+  static constexpr bool value = W::kHeadsAhead;
+};
+
 template <class W, class Group>
 BIODEM_HD inline void walk_row_lanes(const W& w, std::uint32_t item, const Group& grp) {
-  WalkStart st;
-  if (!w.walk_begin(item, st)) return;
   const std::uint32_t lanes = grp.size(), lane = grp.lane();
-  Vec3 f, t;
-  std::uint32_t count = 0;
-  for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
-    const RowContact mine = w.walk_entry(st, v0 + lane);
-    const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
-    for (std::uint32_t src = 0; src < in_round; ++src) walk_add(grp.shuffle(mine, src), f, t, count);
+  if constexpr (WalksHeadsAhead<W>::value) {
+    auto next = lane < w.head_limit() ? w.walk_head(item, lane) : decltype(w.walk_head(item, lane)){};
+    WalkStart st;
+    if (!w.walk_begin(item, st)) return;
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
+      const std::uint32_t v = v0 + lane;
+      RowContact mine;
+      if (v < st.len) {
+        const auto head = next;
+        if (v + lanes < st.len) next = w.walk_head(item, v + lanes);
+        mine = w.walk_entry_from(st, v, head);
+      } else {
+        mine = w.walk_entry(st, v);  // a wall, or past the walk's end
+      }
+      const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
+      for (std::uint32_t src = 0; src < in_round; ++src) walk_add(grp.shuffle(mine, src), f, t, count);
+    }
+    if (lane == 0) w.walk_end(item, st, f, t, count);
+  } else {
+    WalkStart st;
+    if (!w.walk_begin(item, st)) return;
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
+      const RowContact mine = w.walk_entry(st, v0 + lane);
+      const std::uint32_t in_round = st.total - v0 < lanes ? st.total - v0 : lanes;
+      for (std::uint32_t src = 0; src < in_round; ++src) walk_add(grp.shuffle(mine, src), f, t, count);
+    }
+    if (lane == 0) w.walk_end(item, st, f, t, count);
   }
-  if (lane == 0) w.walk_end(item, st, f, t, count);
 }
 
 /// The contact forces on sphere a (one item per sphere): its pair contacts in the order of the
@@ -1149,6 +1187,18 @@ struct Forces : ContactArgs {
     s.torque[st.a] = t;
     s.contacts[st.a] = count;
   }
+  /// The row lanes load each one's next entry head ahead (walk_row_lanes).
+  static constexpr bool kHeadsAhead = true;
+  BIODEM_HD std::uint32_t head_limit() const { return rows.cap; }
+  BIODEM_HD EntryHead walk_head(std::uint32_t a, std::uint32_t v) const { return entry_head(v * n + a); }
+  /// Pair entry v (< st.len) of the walk from its head: walk_entry(st, v)'s contact.
+  BIODEM_HD RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const EntryHead& e) const {
+    RowContact r;
+    bool a_low = false;
+    if (pair_entry_from<Cohesion, Rolling>(e, st.a, st.sid_a, v * n + st.a, r.force, r.torque, a_low))
+      r.kind = a_low ? 1 : 2;
+    return r;
+  }
   /// The walk by one thread (on CUDA with BIODEM_GPU_ROW_LANES=1 or when timed fastest; on CPU
   /// threads always): walk_row's contacts in walk order with the same operations, each entry's
   /// head loaded one entry ahead (the first with the sphere's stable id and row length), so that
@@ -1162,16 +1212,12 @@ struct Forces : ContactArgs {
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     Vec3 f, t;
     std::uint32_t count = 0;
+    const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = 0; v < len; ++v) {
       const EntryHead e = next;
       if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-      RowContact r;
-      bool a_low = false;
-      if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
-        r.kind = a_low ? 1 : 2;
-      walk_add(r, f, t, count);
+      walk_add(w.walk_entry_from(st, v, e), f, t, count);
     }
-    const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) walk_add(w.walk_entry(st, v), f, t, count);
     w.walk_end(a, st, f, t, count);
   }

@@ -23,6 +23,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <barrier>
 #include <cmath>
 #include <cstring>
@@ -353,6 +354,32 @@ struct MadeUpWalk {
   }
 };
 
+/// MadeUpWalk as a walker that loads its entries' heads ahead (kHeadsAhead, as Forces): each
+/// lane's contact v < len comes from the head loaded for it before; a head of the wrong entry,
+/// or a load at or past head_limit(), gives a contact that changes the sums (and is counted).
+struct MadeUpWalkAhead : MadeUpWalk {
+  std::atomic<std::uint32_t>* wrong;
+  static constexpr bool kHeadsAhead = true;
+  struct Head {
+    std::uint32_t item = ~0u, v = ~0u;
+  };
+  std::uint32_t head_limit() const { return 27; }  // (rows up to 26 entries: lanes of 32 past it)
+  Head walk_head(std::uint32_t item, std::uint32_t v) const {
+    if (v >= head_limit()) ++*wrong;
+    return Head{item, v};
+  }
+  RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    if (h.item != st.a || h.v != v || v >= st.len) {
+      ++*wrong;
+      RowContact r;
+      r.kind = 1;
+      r.force = Vec3{1e30, 1e30, 1e30};
+      return r;
+    }
+    return walk_entry(st, v);
+  }
+};
+
 }  // namespace
 
 namespace {
@@ -399,6 +426,36 @@ TEST(RowWalkLanes, GroupsOfThreadLanesGiveTheSumsOfOneThread) {
   EXPECT_GT(contacts, 1000u);
   EXPECT_EQ(e1[10], 0u);  // (walk_begin said nothing to do)
   EXPECT_EQ(e1[11], 1u);
+}
+
+// The same with a walker whose lanes load their next entry's head ahead (kHeadsAhead: the path
+// Forces takes on CUDA): each lane evaluates entries l, l + lanes, ... from the heads it loaded
+// one round before, and loads none at or past head_limit(). Groups of 1, 2, 4, 16 and 32 thread
+// lanes give the sums of one thread walking the plain MadeUpWalk, and no wrong head is used.
+TEST(RowWalkLanes, LanesLoadingTheirHeadsAheadGiveTheSumsOfOneThread) {
+  constexpr std::uint32_t kItems = 300;
+  std::vector<Vec3> f1(kItems, Vec3{-1, -1, -1}), t1(kItems, Vec3{-1, -1, -1});
+  std::vector<std::uint32_t> c1(kItems, 12345), e1(kItems, 0);
+  const MadeUpWalk one{f1.data(), t1.data(), c1.data(), e1.data()};
+  for (std::uint32_t i = 0; i < kItems; ++i) walk_row(one, i);
+  for (const std::uint32_t lanes : {1u, 2u, 4u, 16u, 32u}) {
+    std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
+    std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
+    std::atomic<std::uint32_t> wrong{0};
+    MadeUpWalkAhead ahead;
+    static_cast<MadeUpWalk&>(ahead) = MadeUpWalk{f.data(), t.data(), c.data(), e.data()};
+    ahead.wrong = &wrong;
+    static_assert(WalksHeadsAhead<MadeUpWalkAhead>::value && !WalksHeadsAhead<MadeUpWalk>::value);
+    walk_rows_in_thread_lanes(ahead, kItems, lanes);
+    std::size_t differ = 0;
+    for (std::uint32_t i = 0; i < kItems; ++i)
+      differ += !(std::memcmp(&f[i], &f1[i], sizeof(Vec3)) == 0 && std::memcmp(&t[i], &t1[i], sizeof(Vec3)) == 0 &&
+                  c[i] == c1[i] && e[i] == e1[i]);
+    EXPECT_EQ(differ, 0u) << lanes << " lanes";
+    EXPECT_EQ(wrong.load(), 0u) << lanes << " lanes";
+    std::printf("[measured] row walk with %u lanes loading heads ahead vs one thread: %zu walks differ, %u wrong heads\n",
+                lanes, differ, wrong.load());
+  }
 }
 
 // 3. A list built with the box of the list check's motion, one step old (Engine::check_list), on
