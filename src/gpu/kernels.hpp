@@ -1212,12 +1212,16 @@ struct Forces : ContactArgs {
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     Vec3 f, t;
     std::uint32_t count = 0;
-    const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = 0; v < len; ++v) {
       const EntryHead e = next;
       if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-      walk_add(w.walk_entry_from(st, v, e), f, t, count);
+      RowContact r;
+      bool a_low = false;
+      if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
+        r.kind = a_low ? 1 : 2;
+      walk_add(r, f, t, count);
     }
+    const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) walk_add(w.walk_entry(st, v), f, t, count);
     w.walk_end(a, st, f, t, count);
   }
