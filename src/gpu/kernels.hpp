@@ -1394,6 +1394,8 @@ struct ForcesKickDrift : Forces<Cohesion, Rolling> {
   }
   BIODEM_HD void operator()(std::uint32_t a) const { Forces<Cohesion, Rolling>::walk_prefetched(*this, a); }
 };
+static_assert(WalksHeadsAhead<ForcesKickDrift<false, false>>::value && WalksHeadsAhead<Forces<true, true>>::value,
+              "the row lanes of the walk load their heads ahead");
 
 /// The sphere motion that ForcesKickDrift wrote to the other buffer, copied back (after an odd
 /// number of its steps, so that the engine's arrays hold the state between runs).

@@ -359,16 +359,18 @@ struct MadeUpWalk {
 /// or a load at or past head_limit(), gives a contact that changes the sums (and is counted).
 struct MadeUpWalkAhead : MadeUpWalk {
   std::atomic<std::uint32_t>* wrong;
+  std::atomic<std::uint32_t>* from_heads;  // walk_entry_from calls
   static constexpr bool kHeadsAhead = true;
   struct Head {
     std::uint32_t item = ~0u, v = ~0u;
   };
-  std::uint32_t head_limit() const { return 27; }  // (rows up to 26 entries: lanes of 32 past it)
+  std::uint32_t head_limit() const { return 26; }  // (the longest row: a load at or past it is wrong)
   Head walk_head(std::uint32_t item, std::uint32_t v) const {
     if (v >= head_limit()) ++*wrong;
     return Head{item, v};
   }
   RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    ++*from_heads;
     if (h.item != st.a || h.v != v || v >= st.len) {
       ++*wrong;
       RowContact r;
@@ -441,10 +443,11 @@ TEST(RowWalkLanes, LanesLoadingTheirHeadsAheadGiveTheSumsOfOneThread) {
   for (const std::uint32_t lanes : {1u, 2u, 4u, 16u, 32u}) {
     std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
     std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
-    std::atomic<std::uint32_t> wrong{0};
+    std::atomic<std::uint32_t> wrong{0}, from_heads{0};
     MadeUpWalkAhead ahead;
     static_cast<MadeUpWalk&>(ahead) = MadeUpWalk{f.data(), t.data(), c.data(), e.data()};
     ahead.wrong = &wrong;
+    ahead.from_heads = &from_heads;
     static_assert(WalksHeadsAhead<MadeUpWalkAhead>::value && !WalksHeadsAhead<MadeUpWalk>::value);
     walk_rows_in_thread_lanes(ahead, kItems, lanes);
     std::size_t differ = 0;
@@ -453,6 +456,13 @@ TEST(RowWalkLanes, LanesLoadingTheirHeadsAheadGiveTheSumsOfOneThread) {
                   c[i] == c1[i] && e[i] == e1[i]);
     EXPECT_EQ(differ, 0u) << lanes << " lanes";
     EXPECT_EQ(wrong.load(), 0u) << lanes << " lanes";
+    // every pair entry came from its head (none through walk_entry)
+    std::uint32_t entries = 0;
+    for (std::uint32_t i = 0; i < kItems; ++i) {
+      WalkStart st;
+      if (ahead.walk_begin(i, st)) entries += st.len;
+    }
+    EXPECT_EQ(from_heads.load(), entries) << lanes << " lanes";
     std::printf("[measured] row walk with %u lanes loading heads ahead vs one thread: %zu walks differ, %u wrong heads\n",
                 lanes, differ, wrong.load());
   }
