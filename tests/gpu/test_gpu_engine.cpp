@@ -971,10 +971,15 @@ TEST(GpuEngine, SumsInsideTheKickGiveTheBitsOfSumEntries) {
 // friction, a turning cylinder, a periodic axis), stepped in runs of odd and even lengths across
 // list checks, rebuilds, a criterion phase (unfused there) and an upload: bit-identical after
 // every run to the walk and ReduceKickDrift apart, and to the entry kernels with the sums in the
-// body kernel. (Read and written in one buffer, as the walk and the update in place, it differs:
-// checked.)
+// body kernel; the first comparison with the kernels on two OpenMP threads (threshold 0). (Read
+// and written in one buffer, as the walk and the update in place, it differs: checked.)
 TEST(GpuEngine, WalkWithTheBodyUpdateGivesTheBitsOfTheWalkAndReduceKickDrift) {
   for (const bool entries_b : {false, true}) {
+    // (the first on the OpenMP threads, threshold 0, where a read of a neighbour the same
+    // kernel updates would be a race; the second serially)
+    const ScopedThreads scoped(entries_b ? 1 : 2);
+    const std::size_t old = kParallelThreshold;
+    if (!entries_b) set_parallel_threshold(0);
     const auto r = stepped_alike(
         1.2e-3, true, true,
         [](gpu::DeviceEngine& e) {
@@ -985,6 +990,7 @@ TEST(GpuEngine, WalkWithTheBodyUpdateGivesTheBitsOfTheWalkAndReduceKickDrift) {
           e.set_entry_forces(entries_b);
           e.set_walk_kick(false);
         });
+    set_parallel_threshold(old);
     std::printf("[measured] row walk with the body update vs %s: %llu steps, %llu with the update in the walk, "
                 "%llu list builds; bit-identical after every run\n",
                 entries_b ? "the entry kernels (sums in the body kernel)" : "the row walk and ReduceKickDrift",
