@@ -249,7 +249,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_GPU_QUEUED_CHECK=2", "BIODEM_TEST_GPU_FAULT_AT_STEP=x",
                                 "BIODEM_TEST_GPU_FAULT_AT_STEP=0", "BIODEM_GPU_BLOCK=100", "BIODEM_GPU_ROW_LANES=3",
                                 "BIODEM_GPU_BUILD_LANES=0", "BIODEM_GPU_BUILD_LANES=64",
-                                "BIODEM_TEST_GPU_FAULT_IN_THRUST=2"}) {
+                                "BIODEM_TEST_GPU_FAULT_IN_THRUST=2", "BIODEM_GPU_SUM_LANES=2", "BIODEM_GPU_WALK_KICK=yes",
+                                "BIODEM_GPU_PDL=on"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -260,18 +261,20 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   }
   const std::string ok = fresh_dir("gpu_good_switch");  // the documented values run
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 "
-                       "BIODEM_GPU_BUILD_LANES=1 " + biodem_exe() +
+                       "BIODEM_GPU_BUILD_LANES=1 BIODEM_GPU_SUM_LANES=auto BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_PDL=0 " +
+                       biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
-// The switches the CUDA engine applies (BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES, BIODEM_GPU_BUILD_LANES) are checked
+// The switches the CUDA engine applies (BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES, BIODEM_GPU_BUILD_LANES,
+// BIODEM_GPU_PDL) are checked
 // before the engine looks for a device, whatever the build: with `--device gpu` a bad value is
 // one line naming it (before "no CUDA-capable GPU" or "built without the CUDA engine"), and
 // nothing is written.
 TEST(GpuRuns, CudaSwitchesAreCheckedBeforeTheDevice) {
   for (const std::string bad : {"BIODEM_GPU_BLOCK=100", "BIODEM_GPU_ROW_LANES=3", "BIODEM_GPU_ROW_LANES=64",
-                                "BIODEM_GPU_BUILD_LANES=3"}) {
+                                "BIODEM_GPU_BUILD_LANES=3", "BIODEM_GPU_PDL=2"}) {
     const std::string d = fresh_dir("gpu_bad_cuda_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device gpu");
     const std::string name = bad.substr(0, bad.find('='));
