@@ -171,6 +171,20 @@ class DeviceEngine {
   /// on; the same bits either way).
   virtual std::string contact_kernels() const = 0;
   virtual std::uint64_t entry_force_passes() const = 0;
+  /// The order-free family (BIODEM_GPU_SUMS=fixed or this switch; docs/gpu.md section 2): the
+  /// per-contact kernels add each contact's force and torque to its spheres' sums as 64-bit
+  /// fixed-point integers (src/gpu/fixed_sums.hpp), in any order, so the sums are the same bits
+  /// on any device and number of threads; each contribution is rounded to the grid of
+  /// fixed_force_quantum() (N) and fixed_torque_quantum() (N m), chosen at upload from the case
+  /// (0 when off). A contribution beyond the grid's range stops the run at the next list check.
+  /// set_fixed_caps (for tests) sets the grid for contributions up to the given magnitudes
+  /// instead. fixed_sum_passes() counts the steps whose sums were fixed-point.
+  virtual void set_fixed_sums(bool on) = 0;
+  virtual bool fixed_sums() const = 0;
+  virtual double fixed_force_quantum() const = 0;
+  virtual double fixed_torque_quantum() const = 0;
+  virtual void set_fixed_caps(double force_cap_n, double torque_cap_n_m) = 0;
+  virtual std::uint64_t fixed_sum_passes() const = 0;
   /// With BIODEM_GPU_PROFILE=1: one line saying where the wall time of the steps went (step
   /// kernels between list checks, list checks, list builds, the rest), for run.log; empty
   /// otherwise. The host then waits for the device after each of them to time it.

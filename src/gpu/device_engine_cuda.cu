@@ -813,6 +813,14 @@ class NamedErrorsEngine final : public DeviceEngine {
   std::uint64_t walk_kick_steps() const override { return e_.walk_kick_steps(); }
   std::string contact_kernels() const override { return e_.contact_kernels(); }
   std::uint64_t entry_force_passes() const override { return e_.entry_force_passes(); }
+  void set_fixed_sums(bool on) override {
+    thrust_errors_named("a kernel switch", [&] { e_.set_fixed_sums(on); });
+  }
+  bool fixed_sums() const override { return e_.fixed_sums(); }
+  double fixed_force_quantum() const override { return e_.fixed_force_quantum(); }
+  double fixed_torque_quantum() const override { return e_.fixed_torque_quantum(); }
+  void set_fixed_caps(double force_cap_n, double torque_cap_n_m) override { e_.set_fixed_caps(force_cap_n, torque_cap_n_m); }
+  std::uint64_t fixed_sum_passes() const override { return e_.fixed_sum_passes(); }
   std::string profile_report() const override { return e_.profile_report(); }
   void set_sort_every(std::uint32_t builds) override { e_.set_sort_every(builds); }
   std::uint64_t body_sorts() const override { return e_.body_sorts(); }

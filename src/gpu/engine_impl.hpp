@@ -143,6 +143,29 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_WALK_KICK = '" + v + "': expected 0, 1 or auto");
       walk_kick_mode_ = v == "1" ? WalkKick::on : v == "0" ? WalkKick::off : WalkKick::automatic;
     }
+    // BIODEM_GPU_SUMS=ordered|fixed: each sphere's contact sums in the row order as doubles (the
+    // default; every kernel set above gives the same bits), or as 64-bit fixed-point integers
+    // added in any order (the order-free family: PairEntriesFixed, then the body kernels; its own
+    // bits, the same on any device and number of threads; fixed_sums.hpp). The order-free family
+    // is one set, the per-contact kernels: not timed against the others, whose bits differ.
+    if (const char* sums = std::getenv("BIODEM_GPU_SUMS"); sums && *sums) {
+      const std::string v(sums);
+      if (v != "ordered" && v != "fixed") throw Error("BIODEM_GPU_SUMS = '" + v + "': expected ordered or fixed");
+      fixed_sums_ = v == "fixed";
+      if (fixed_sums_) {
+        const char* forces = std::getenv("BIODEM_GPU_FORCES");
+        if (forces && *forces && std::string(forces) != "entries" && std::string(forces) != "auto")
+          throw Error("BIODEM_GPU_SUMS = 'fixed' runs the per-contact kernels: BIODEM_GPU_FORCES = '" +
+                      std::string(forces) + "' cannot go with it (entries or auto)");
+        for (const char* other : {"BIODEM_GPU_SUM_LANES", "BIODEM_GPU_WALK_KICK"})
+          if (const char* o = std::getenv(other); o && *o && std::string(o) == "1")
+            throw Error("BIODEM_GPU_SUMS = 'fixed' runs the per-contact kernels: " + std::string(other) +
+                        " = '1' cannot go with it");
+        forces_mode_ = ForcesMode::entries;
+        sum_lanes_mode_ = SumLanes::off;
+        walk_kick_mode_ = WalkKick::off;
+      }
+    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -219,6 +242,30 @@ class Engine final : public DeviceEngine {
     forces_mode_ = on ? ForcesMode::entries : ForcesMode::rows;
   }
   std::uint64_t entry_force_passes() const override { return entry_passes_; }
+  void set_fixed_sums(bool on) override {
+    invalidate_graphs();
+    if (on && !fixed_sums_) {
+      set_entry_forces(true);
+      sum_lanes_mode_ = SumLanes::off;
+      walk_kick_mode_ = WalkKick::off;
+    }
+    fixed_sums_ = on;
+    if (on && !fixed_caps_set_) fixed_grid();
+    if (on && rows_.length.size() == ns()) {
+      ensure_fixed_sums();
+      ensure_entry_buffers();
+    }
+  }
+  bool fixed_sums() const override { return fixed_sums_; }
+  double fixed_force_quantum() const override { return fixed_sums_ ? 1.0 / fixed_force_scale_ : 0.0; }
+  double fixed_torque_quantum() const override { return fixed_sums_ ? 1.0 / fixed_torque_scale_ : 0.0; }
+  void set_fixed_caps(double force_cap_n, double torque_cap_n_m) override {
+    fixed_force_scale_ = fixed::scale_for(force_cap_n);
+    fixed_torque_scale_ = fixed::scale_for(torque_cap_n_m);
+    fixed_caps_set_ = true;
+    invalidate_graphs();
+  }
+  std::uint64_t fixed_sum_passes() const override { return fixed_passes_; }
   std::string profile_report() const override;
   std::string contact_kernels() const override {
     auto us = [](double seconds) {
@@ -226,6 +273,12 @@ class Engine final : public DeviceEngine {
       std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
       return std::string(b);
     };
+    if (fixed_sums_) {
+      char q[96];
+      std::snprintf(q, sizeof q, "quanta %.3g N and %.3g N m", 1.0 / fixed_force_scale_, 1.0 / fixed_torque_scale_);
+      return std::string("per-contact with fixed-point sums in any order (PairEntriesFixed; ") + q +
+             "), set by BIODEM_GPU_SUMS=fixed or a test";
+    }
     const std::string set = use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
                                                 : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
@@ -350,6 +403,8 @@ class Engine final : public DeviceEngine {
   void fused_unit(bool from_second);
   template <bool Cohesion, bool Rolling>
   void launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd);
+  template <bool Cohesion, bool Rolling>
+  void launch_pair_entries_fixed(const ContactArgs& c, const FixedSumArrays& fx);
   /// SphereArrays with the sphere motion (centres, velocities, spins) of the second buffer.
   SphereArrays second_motion(SphereArrays a) {
     a.position = raw<Vec3>(s_pos2_);
@@ -590,6 +645,39 @@ class Engine final : public DeviceEngine {
     return timed_choice() && use_entry_kernels() && tuned_set() == 3;
   }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
+  /// The order-free family (BIODEM_GPU_SUMS=fixed): the per-sphere sums as fixed-point integers
+  /// (FixedSumArrays), their grid chosen at upload (fixed_grid) unless a test set it.
+  bool fixed_sums_ = false;
+  bool fixed_caps_set_ = false;
+  double fixed_force_scale_ = 1.0, fixed_torque_scale_ = 1.0;
+  vec<long long> fixed_sums_buf_;      // 6 * ns(), zero between steps
+  vec<std::uint32_t> fixed_count_;     // ns()
+  std::uint64_t fixed_passes_ = 0;     // steps whose sums were fixed-point
+  void ensure_fixed_sums() {
+    if (fixed_count_.size() == ns() && fixed_sums_buf_.size() == 6 * static_cast<std::size_t>(ns())) return;
+    fixed_sums_buf_.assign(6 * static_cast<std::size_t>(ns()), 0);
+    fixed_count_.assign(ns(), 0u);
+    invalidate_graphs();
+  }
+  FixedSumArrays fixed_arrays() {
+    return {raw<long long>(fixed_sums_buf_), raw<std::uint32_t>(fixed_count_), ns(),
+            fixed_force_scale_, 1.0 / fixed_force_scale_, fixed_torque_scale_, 1.0 / fixed_torque_scale_,
+            fixed::limit_for(rows_.cap + n_walls_)};
+  }
+  /// The grid of the fixed-point sums from the case: contributions up to the Hertz and SJKR
+  /// forces of the stiffest and most cohesive pair at an overlap of the largest radius (far
+  /// beyond any overlap a stable run reaches), four times over for damping, and torques up to
+  /// that force times the largest diameter, fit in 2^56 quanta (fixed::scale_for).
+  void fixed_grid();
+  /// For the non-finite stop's message: a refused fixed-point contribution ends there too.
+  std::string fixed_range_hint() const {
+    if (!fixed_sums_) return "";
+    char b[160];
+    std::snprintf(b, sizeof b, " or, with BIODEM_GPU_SUMS=fixed, a contact force or torque beyond its range of %.3g N and %.3g N m",
+                  fixed::limit_for(rows_.cap + n_walls_) / fixed_force_scale_,
+                  fixed::limit_for(rows_.cap + n_walls_) / fixed_torque_scale_);
+    return b;
+  }
   vec<Vec3> entry_force_, entry_torque_;  // rows_.cap * ns() entries, enlarged at list builds
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   vec<std::uint32_t> mirror_missing_ = vec<std::uint32_t>(1, 0u);  // set by MirrorEntries if a pair's other entry is missing (read at downloads)
@@ -670,6 +758,7 @@ inline void Engine::upload() {
   for (std::uint32_t a = 0; a < n_materials_; ++a)
     for (std::uint32_t c = 0; c < n_materials_; ++c) table[a * n_materials_ + c] = pt(a, c);
   to_device(pairs_, table);
+  if (fixed_sums_ && !fixed_caps_set_) fixed_grid();
   sync_walls();
   n_walls_ = static_cast<std::uint32_t>(host_.walls().size());
 
@@ -722,6 +811,10 @@ inline void Engine::upload() {
   to_device(s_material_, material);
   to_device(s_sid_, sid_host_);
   s_contacts_.assign(n, 0u);
+  if (fixed_sums_) {
+    fixed_sums_buf_.assign(6 * n, 0);
+    fixed_count_.assign(n, 0u);
+  }
   // The host's order; the list build below sorts the bodies (when sorting is on).
   b_host_.resize(b.size());
   b_slot_.resize(b.size());
@@ -850,7 +943,7 @@ inline void Engine::check_finite() {
     to_host(s_host, s_host_);
     throw Error("sphere " + std::to_string(s_host[first]) + " (of body " + std::to_string(b_host[body[first]]) +
                 ") has a non-finite position at t = " + std::to_string(host_.time_s()) +
-                " s: the simulation became unstable (is [run].dt_s too large?)");
+                " s: the simulation became unstable (is [run].dt_s too large?" + fixed_range_hint() + ")");
   }
 }
 
@@ -1089,6 +1182,14 @@ inline void Engine::compute_forces(const std::uint32_t* halt) {
 
 template <bool Cohesion, bool Rolling>
 void Engine::launch_forces(const ContactArgs& c) {
+  if (fixed_sums_ && entries_ready()) {
+    PairEntriesFixed<Cohesion, Rolling> pe;
+    static_cast<ContactArgs&>(pe) = c;
+    pe.fx = fixed_arrays();
+    launch((rows_.cap + n_walls_) * ns(), pe);
+    launch(ns(), TakeFixedSums{pe.fx, c.s, c.halt});
+    return;
+  }
   if (entries_ready()) {
     launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
     if (sum_lanes()) {
@@ -1119,6 +1220,19 @@ inline void Engine::second_half() {
 
 inline void Engine::fused_unit(bool from_second) {
   const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()};
+  if (fixed_sums_ && entries_ready()) {  // the order-free family: the sums inside the body kernel
+    const ContactArgs c = contact_args(halt());
+    const FixedSumArrays fx = fixed_arrays();
+    if (cohesion_) {
+      if (rolling_) launch_pair_entries_fixed<true, true>(c, fx);
+      else launch_pair_entries_fixed<true, false>(c, fx);
+    } else {
+      if (rolling_) launch_pair_entries_fixed<false, true>(c, fx);
+      else launch_pair_entries_fixed<false, false>(c, fx);
+    }
+    launch(nb(), ReduceKickDriftFixed{rkd, fx});
+    return;
+  }
   if (walk_kick()) {  // glass beads, row walk: the body update inside the walk, two buffers
     ContactArgs c = contact_args(halt());
     ReduceKickDrift out = rkd;
@@ -1142,6 +1256,31 @@ inline void Engine::fused_unit(bool from_second) {
   }
   compute_forces(halt());
   launch(nb(), rkd);
+}
+
+template <bool Cohesion, bool Rolling>
+void Engine::launch_pair_entries_fixed(const ContactArgs& c, const FixedSumArrays& fx) {
+  PairEntriesFixed<Cohesion, Rolling> pe;
+  static_cast<ContactArgs&>(pe) = c;
+  pe.fx = fx;
+  launch((rows_.cap + n_walls_) * ns(), pe);
+}
+
+inline void Engine::fixed_grid() {
+  const auto& pt = host_.pair_table();
+  double y = 0.0, kc = 0.0, r = 0.0;
+  for (std::size_t a = 0; a < pt.materials(); ++a)
+    for (std::size_t c = 0; c < pt.materials(); ++c)
+      if (pt(a, c).defined) {
+        y = std::max(y, pt(a, c).y_eff_pa);
+        kc = std::max(kc, pt(a, c).cohesion_energy_density_j_m3);
+      }
+  for (double ri : host_.spheres().radius_m) r = std::max(r, ri);
+  r = std::max(r_max_, r);
+  const double r2 = r * r;
+  const double force_cap = 4.0 * (4.0 / 3.0 * y * r2 + kc * 3.141592653589793 * r2);
+  fixed_force_scale_ = fixed::scale_for(force_cap);
+  fixed_torque_scale_ = fixed::scale_for(2.0 * r * force_cap);
 }
 
 template <bool Cohesion, bool Rolling>
@@ -1199,13 +1338,14 @@ inline void Engine::run_units(std::uint32_t units) {
   if (two_buffers) walk_kick_units_ += units;
   if (fused && single_spheres_ && entries) summed_in_kick_ += units;
   if (entries) entry_passes_ += units;
+  if (entries && fixed_sums_) fixed_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
                             (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
-                            (two_buffers ? 1u << 14 : 0u) |
+                            (two_buffers ? 1u << 14 : 0u) | (fixed_sums_ ? 1u << 15 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
                             (criterion_.translational ? 1u : 0u);
   const bool timing = tuning_under_way();
@@ -1337,6 +1477,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
     const std::uint64_t units = std::min<std::uint64_t>(steps_until_check_, max_steps - cur);
     if (units == 0) {
       if (entries_ready()) ++entry_passes_;
+      if (entries_ready() && fixed_sums_) ++fixed_passes_;
       second_half();
       break;
     }
@@ -1399,7 +1540,7 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
   if (moved >= 1e150) {
     check_finite();  // throws, naming the sphere (when the motion read is of now: see below)
     if (lag) throw Error("GPU engine: a sphere's position became non-finite by t = " + std::to_string(host_.time_s()) +
-                         " s: the simulation became unstable (is [run].dt_s too large?)");
+                         " s: the simulation became unstable (is [run].dt_s too large?" + fixed_range_hint() + ")");
   }
   if (moved > half_skin)
     throw Error("GPU engine: a sphere moved " + std::to_string(moved) +

@@ -1,17 +1,21 @@
 // The GPU engine's kernels: functors over one index (a body, a sphere), launched through Thrust
 // (thrust::for_each_n over a counting iterator). The same functors compile with nvcc for the GPU
 // and with g++ for CPU threads (Thrust's OpenMP system), so the tests execute this exact code.
-// Every functor reads and writes flat arrays through raw pointers; no atomics anywhere.
+// Every functor reads and writes flat arrays through raw pointers; no atomics, except the integer
+// additions of the fixed-point sums (BIODEM_GPU_SUMS=fixed, fixed_sums.hpp), whose result does not
+// depend on their order.
 //
 // This header lives in a namespace chosen by the including translation unit
 // (BIODEM_GPU_NS), so that the CUDA and the host-threads instantiations never share a symbol.
 #pragma once
 #include <cstdint>
+#include <limits>
 
 #include "contact/contact_model.hpp"
 #include "core/hd.hpp"
 #include "core/quat.hpp"
 #include "core/vec3.hpp"
+#include "gpu/fixed_sums.hpp"
 #include "integrate/rigid_rotation.hpp"
 #include "integrate/velocity_verlet.hpp"
 #include "walls/wall_geometry.hpp"
@@ -1471,6 +1475,147 @@ struct SumEntriesKickDriftWalk {
     finish_single_sphere(c, rkd, k, f, t, count);
   }
   BIODEM_HD void operator()(std::uint32_t k) const { walk_row(*this, k); }
+};
+
+/// The per-sphere fixed-point sums of the order-free family (BIODEM_GPU_SUMS=fixed,
+/// fixed_sums.hpp): sums[c * n + i] for sphere i, c = 0..2 the force, 3..5 the torque, in quanta
+/// of force_quantum and torque_quantum; count[i] the contacts counted once (a pair by its lower-id
+/// side, a wall by its sphere), with fixed::kOutOfRange set when a contribution was refused. All
+/// zero between steps: the kernel that takes a sphere's sums zeroes them.
+struct FixedSumArrays {
+  long long* sums;
+  std::uint32_t* count;
+  std::uint32_t n;
+  double force_scale, force_quantum, torque_scale, torque_quantum;
+  double limit;  // the largest |contribution| in quanta (fixed::limit_for of the row capacity and walls)
+
+  /// Adds force f and torque t to sphere i's sums (and one to its count when `counted`); a
+  /// component beyond the limit (or not a number) adds nothing and flags the sphere.
+  BIODEM_HD void add(std::uint32_t i, const Vec3& f, const Vec3& t, bool counted) const {
+    bool ok = true;
+    const long long q[6] = {fixed::to_fixed(f.x, force_scale, limit, ok),  fixed::to_fixed(f.y, force_scale, limit, ok),
+                            fixed::to_fixed(f.z, force_scale, limit, ok),  fixed::to_fixed(t.x, torque_scale, limit, ok),
+                            fixed::to_fixed(t.y, torque_scale, limit, ok), fixed::to_fixed(t.z, torque_scale, limit, ok)};
+    if (!ok) {
+      fixed::atomic_or(count + i, fixed::kOutOfRange);
+      return;
+    }
+    for (std::uint32_t c = 0; c < 6; ++c) fixed::atomic_add(sums + c * n + i, q[c]);
+    if (counted) fixed::atomic_add(count + i, 1u);
+  }
+  /// A pair's force on its lower-id sphere i (fl) and the torques on i (ti) and j (tj): the force
+  /// is rounded once and added to i and, negated (exactly), to j; the pair is counted by i.
+  BIODEM_HD void add_pair(std::uint32_t i, std::uint32_t j, const Vec3& fl, const Vec3& ti, const Vec3& tj) const {
+    bool ok = true;
+    const long long f[3] = {fixed::to_fixed(fl.x, force_scale, limit, ok), fixed::to_fixed(fl.y, force_scale, limit, ok),
+                            fixed::to_fixed(fl.z, force_scale, limit, ok)};
+    const long long a[3] = {fixed::to_fixed(ti.x, torque_scale, limit, ok), fixed::to_fixed(ti.y, torque_scale, limit, ok),
+                            fixed::to_fixed(ti.z, torque_scale, limit, ok)};
+    const long long b[3] = {fixed::to_fixed(tj.x, torque_scale, limit, ok), fixed::to_fixed(tj.y, torque_scale, limit, ok),
+                            fixed::to_fixed(tj.z, torque_scale, limit, ok)};
+    if (!ok) {
+      fixed::atomic_or(count + i, fixed::kOutOfRange);
+      fixed::atomic_or(count + j, fixed::kOutOfRange);
+      return;
+    }
+    for (std::uint32_t c = 0; c < 3; ++c) {
+      fixed::atomic_add(sums + c * n + i, f[c]);
+      fixed::atomic_add(sums + c * n + j, -f[c]);
+      fixed::atomic_add(sums + (c + 3) * n + i, a[c]);
+      fixed::atomic_add(sums + (c + 3) * n + j, b[c]);
+    }
+    fixed::atomic_add(count + i, 1u);
+  }
+  /// Sphere i's sums as doubles (not-a-number when a contribution was refused), then zeroed for
+  /// the next step.
+  BIODEM_HD void take(std::uint32_t i, Vec3& f, Vec3& t, std::uint32_t& contacts) const {
+    long long q[6];
+    for (std::uint32_t c = 0; c < 6; ++c) q[c] = sums[c * n + i];
+    const std::uint32_t k = count[i];
+    for (std::uint32_t c = 0; c < 6; ++c) sums[c * n + i] = 0;
+    count[i] = 0;
+    f = Vec3{fixed::from_fixed(q[0], force_quantum), fixed::from_fixed(q[1], force_quantum),
+             fixed::from_fixed(q[2], force_quantum)};
+    t = Vec3{fixed::from_fixed(q[3], torque_quantum), fixed::from_fixed(q[4], torque_quantum),
+             fixed::from_fixed(q[5], torque_quantum)};
+    contacts = k & ~fixed::kOutOfRange;
+    if (k & fixed::kOutOfRange) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      f = Vec3{nan, nan, nan};
+      t = f;
+    }
+  }
+};
+
+/// PairEntries of the order-free family: one thread per row entry and wall slot, each pair
+/// evaluated once by its lower-id side's entry (pair_entry, the same contact arithmetic), each
+/// wall contact by its slot; their forces and torques added to both spheres' fixed-point sums
+/// (FixedSumArrays::add_pair, add) instead of written to the entry buffers, so no per-sphere
+/// pass over the rows follows. Touching flags and history as PairEntries.
+template <bool Cohesion, bool Rolling>
+struct PairEntriesFixed : ContactArgs {
+  FixedSumArrays fx;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(halt)) return;
+    const std::uint32_t a = k % n, q = k / n;
+    if (q >= rows.cap) {
+      Vec3 fw, tw;
+      if (wall_entry<Cohesion, Rolling>(a, q - rows.cap, fw, tw)) fx.add(a, fw, tw, true);
+      return;
+    }
+    if (q >= rows.length[a]) return;
+    const std::uint32_t sid_a = s.sid[a];
+    const EntryHead e = entry_head(k);
+    if (!(sid_a < e.sid_b)) return;  // the pair's higher-id side: added by the other entry
+    const std::uint32_t m = rows.mirror[k];
+    Vec3 fl, ta, tb;
+    bool a_low = true;
+    const bool touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
+    rows.touching[m] = touching ? 1 : 0;
+    if (touching) fx.add_pair(a, e.b, fl, ta, tb);
+  }
+};
+
+/// The order-free family's per-sphere step outside the fused units: sphere i's sums taken from
+/// the fixed-point sums into its force, torque and contact count (then ReduceKick).
+struct TakeFixedSums {
+  FixedSumArrays fx;
+  SphereArrays s;
+  const std::uint32_t* halt;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    if (halted(halt)) return;
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    fx.take(i, f, t, count);
+    s.force[i] = f;
+    s.torque[i] = t;
+    s.contacts[i] = count;
+  }
+};
+
+/// ReduceKickDrift of the order-free family: body k's spheres' sums taken from the fixed-point
+/// sums (stored as their force, torque and contact count), summed into the body's force and
+/// torque with body_sums' operations in template order, then the rest of ReduceKickDrift.
+struct ReduceKickDriftFixed {
+  ReduceKickDrift rkd;
+  FixedSumArrays fx;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    if (halted(rkd.halt)) return;
+    const BodyState st = load_body(rkd.b, k);
+    Vec3 f = st.m * rkd.gravity, t{};
+    for (std::uint32_t i = st.s0; i < st.s0 + st.ns; ++i) {
+      Vec3 fs, ts;
+      std::uint32_t count = 0;
+      const Vec3 p = rkd.s.position[i];
+      fx.take(i, fs, ts, count);
+      rkd.s.force[i] = fs;
+      rkd.s.torque[i] = ts;
+      rkd.s.contacts[i] = count;
+      f += fs;
+      t += ts + cross(p - st.x, fs);
+    }
+    rkd.finish(k, st, f, t);
+  }
 };
 
 /// Kinetic energy of body k (translation + rotation in the principal frame), as the CPU engine.

@@ -1294,3 +1294,200 @@ TEST(GpuEngine, NonFinitePositionStopsTheRunNamingTheSphere) {
       EXPECT_NE(what.find("dt_s"), std::string::npos) << what;
     }
 }
+
+namespace {
+/// Spheres of two sizes (0.5 and 0.497 mm) on a jittered cubic lattice of 0.99 mm in a turning
+/// cylinder of 6 mm (periodic along its axis, 5.94 mm), with gravity: every sphere overlaps its
+/// neighbours (and the outer ones the wall) from the start, so each has several contacts at once
+/// (cohesion and rolling friction on); the bed then springs apart over some hundred steps.
+std::unique_ptr<sim::Simulation> compressed_bed() {
+  constexpr double kR = 6e-3, kLz = 5.94e-3, kSpacing = 0.99e-3;
+  SimSetup su;
+  su.particle = {5e6, 0.3, 1000.0};
+  su.wall = {5e6, 0.3, 0.0};
+  su.particle_particle = {0.5, 0.5, 0.3, 5e4};
+  su.particle_wall = {0.5, 0.4, 0.5, 2.5e4};
+  su.templates = {sphere_template(0.5e-3), sphere_template(0.497e-3)};
+  su.dt_s = 1e-5;
+  su.gravity_m_s2 = Vec3{0, -9.81, 0};
+  auto s = std::make_unique<sim::Simulation>(make_simulation(su));
+  s->add_wall(cylinder_wall({0, 0, 0}, {0, 0, 1}, kR, 3.0));
+  s->set_skin(0.3e-3);
+  neighbor::Domain d;
+  d.periodic = {false, false, true};
+  d.lo_m = {0, 0, 0};
+  d.hi_m = {0, 0, kLz};
+  s->set_domain(d);
+  std::mt19937_64 gen(31);
+  const int n = static_cast<int>(kR / kSpacing);
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      for (int l = 0; l < static_cast<int>(kLz / kSpacing + 0.5); ++l) {
+        const Vec3 x{i * kSpacing + 1e-5 * (uniform(gen) - 0.5), j * kSpacing + 1e-5 * (uniform(gen) - 0.5),
+                     (l + 0.5) * kSpacing};
+        if (std::hypot(x.x, x.y) > kR - 0.495e-3) continue;
+        add_particle(*s, static_cast<std::uint32_t>(gen() % 2), x, Vec3{}, Vec3{});
+      }
+  return s;
+}
+}  // namespace
+
+// The order-free family (BIODEM_GPU_SUMS=fixed): each contact's force and torque added to its
+// spheres' sums as fixed-point integers, in whatever order the threads get there. The packing
+// (needles, and spheres only), stepped in runs across list checks, rebuilds, a criterion phase
+// and an upload, once serially (one thread, the kernels as loops in index order) and once on
+// four OpenMP threads with the parallel threshold 0 (the atomic additions race): bit-identical
+// after every run. (Double sums added in the order the threads arrive would differ.)
+TEST(GpuEngine, FixedSumsGiveTheSameBitsOnAnyNumberOfThreads) {
+  for (const int scene : {0, 1, 2}) {
+    SCOPED_TRACE(scene == 0 ? "needles" : scene == 1 ? "spheres" : "compressed bed");
+    auto make = [scene] { return scene == 2 ? compressed_bed() : packing(1.2e-3, true, true, scene == 1); };
+    auto a = make(), b = make();
+    std::size_t most_contacts = 0;
+    auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+    ea->set_fixed_sums(true);
+    eb->set_fixed_sums(true);
+    std::uint64_t steps = 0;
+    {
+      const ScopedThreads serial(1);
+      ea->upload();
+    }
+    const ScopedThreads four(4);
+    const std::size_t old = kParallelThreshold;
+    set_parallel_threshold(0);
+    eb->upload();
+    set_parallel_threshold(old);
+    // (step_alike_in_runs steps ea then eb each run: the threshold and threads switched around them)
+    gpu::DeviceEngine::SettleCriterion never;
+    never.min_steps = 1000000;
+    const std::uint64_t runs[] = {37, 1, 113, 8, 64, 29, 200};
+    for (std::size_t r = 0; r < std::size(runs); ++r) {
+      if (r == 3) {
+        ea->begin_settle(never, 0, 0);
+        eb->begin_settle(never, 0, 0);
+      }
+      if (r == 5) {
+        ea->end_settle();
+        eb->end_settle();
+      }
+      {
+        const ScopedThreads serial(1);
+        EXPECT_EQ(ea->advance(runs[r]).steps, runs[r]);
+        ea->download(true);
+      }
+      set_parallel_threshold(0);
+      EXPECT_EQ(eb->advance(runs[r]).steps, runs[r]);
+      eb->download(true);
+      set_parallel_threshold(old);
+      steps += runs[r];
+      most_contacts = std::max(most_contacts, a->contact_count());
+      const std::string diff = first_difference(*a, *b);
+      EXPECT_EQ(diff, "") << "after run " << r << " (" << steps << " steps)";
+      if (!diff.empty()) break;
+      if (r == 4) {
+        ea->upload();
+        set_parallel_threshold(0);
+        eb->upload();
+        set_parallel_threshold(old);
+      }
+    }
+    std::printf("[measured] fixed-point sums, 1 thread vs 4 threads at threshold 0: %zu bodies, %llu steps, %llu list "
+                "builds, up to %zu contacts after a run; bit-identical after every run; %s\n",
+                a->bodies().size(), static_cast<unsigned long long>(steps),
+                static_cast<unsigned long long>(ea->list_builds()), most_contacts, ea->contact_kernels().c_str());
+    EXPECT_EQ(ea->fixed_sum_passes(), steps);
+    EXPECT_GT(ea->list_builds(), 5u);
+    EXPECT_GT(most_contacts, scene == 2 ? 400u : 2u);
+    EXPECT_NE(ea->contact_kernels().find("fixed-point"), std::string::npos) << ea->contact_kernels();
+  }
+}
+
+// The fixed-point sums against the ordered double sums, from one state: after one step every
+// sphere's force and torque are within their bound, (contacts + walls) / 2 quanta plus the
+// double sums' own rounding; after 300 steps (list rebuilds, cohesion, rolling friction, a
+// turning cylinder) the bodies are within 1e-9 m of the ordered run, as the dense packings of
+// the two engines are (a sign, a factor 2 or a unit error in the fixed path moves them by
+// 1e-6 m or more: a pair's force added with the same sign to both sides was checked to fail).
+TEST(GpuEngine, FixedSumsStayWithinTheirQuantaOfTheOrderedSums) {
+  auto a = compressed_bed(), b = compressed_bed();
+  auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+  ea->set_fixed_sums(true);
+  eb->set_entry_forces(true);
+  ea->upload();
+  eb->upload();
+  const double qf = ea->fixed_force_quantum(), qt = ea->fixed_torque_quantum();
+  ASSERT_GT(qf, 0.0);
+  ASSERT_GT(qt, 0.0);
+  // From the ordered engine's state, every 25 steps: one step of each, then every sphere's sums.
+  double worst_f = 0.0, worst_t = 0.0, biggest_f = 0.0;
+  std::size_t compared = 0;
+  for (int round = 0; round < 8; ++round) {
+    eb->download(true);
+    *a = *b;
+    ea->upload();
+    ea->step();
+    eb->step();
+    ea->download(true);
+    eb->download(true);
+    EXPECT_EQ(a->contact_count(), b->contact_count());
+    const auto &fa = a->spheres().force_n, &fb = b->spheres().force_n;
+    const auto &ta = a->spheres().torque_n_m, &tb = b->spheres().torque_n_m;
+    for (std::size_t i = 0; i < fa.size(); ++i) {
+      // at most 20 contributions (rows and the wall) of half a quantum, and the double sums'
+      // own rounding
+      const double bound_f = 10.0 * qf + 1e-14 * norm(fb[i]), bound_t = 10.0 * qt + 1e-14 * norm(tb[i]);
+      for (int c = 0; c < 3; ++c) {
+        ASSERT_LE(std::fabs(fa[i][c] - fb[i][c]), bound_f) << "sphere " << i << " force " << c << ", round " << round;
+        ASSERT_LE(std::fabs(ta[i][c] - tb[i][c]), bound_t) << "sphere " << i << " torque " << c << ", round " << round;
+      }
+      worst_f = std::max(worst_f, norm(fa[i] - fb[i]));
+      worst_t = std::max(worst_t, norm(ta[i] - tb[i]));
+      biggest_f = std::max(biggest_f, norm(fb[i]));
+    }
+    compared += b->contact_count();
+    for (int k = 0; k < 24; ++k) eb->step();
+  }
+  EXPECT_GT(compared, 2000u);
+  EXPECT_GT(biggest_f, 1e9 * qf);  // (forces far above the grid: the comparison means something)
+  EXPECT_GT(worst_f, 0.0);         // (the rounding shows: the fixed sums did run)
+  // Then 300 steps of each from one state: the trajectories stay within 1e-9 m.
+  eb->download(true);
+  *a = *b;
+  ea->upload();
+  for (int k = 0; k < 300; ++k) {
+    ea->step();
+    eb->step();
+  }
+  ea->download(true);
+  eb->download(true);
+  const double gap = worst_position_gap(*a, *b);
+  std::printf("[measured] fixed-point vs ordered sums, compressed bed of %zu spheres: quanta %.3g N and %.3g N m; "
+              "one step from one state (8 times, %zu contacts): worst force %.3g N and torque %.3g N m apart, largest "
+              "force %.3g N; 300 steps from one state: bodies %.3g m apart, %zu vs %zu contacts\n",
+              a->spheres().size(), qf, qt, compared, worst_f, worst_t, biggest_f, gap, a->contact_count(),
+              b->contact_count());
+  EXPECT_LT(gap, 1e-9);
+  EXPECT_GE(ea->fixed_sum_passes(), 308u);
+  EXPECT_EQ(eb->fixed_sum_passes(), 0u);
+}
+
+// A contribution beyond the fixed-point range (here a grid set for forces up to 1e-9 N, far
+// below the packing's contacts) is refused and its spheres' sums taken as not-a-number: the run
+// stops at the next list check with one line naming the sphere and the range.
+TEST(GpuEngine, FixedSumsOutOfRangeStopTheRun) {
+  auto s = packing(0.5e-3);
+  auto e = gpu_engine(*s);
+  e->set_fixed_sums(true);
+  e->set_fixed_caps(1e-9, 1e-12);
+  std::string what;
+  try {
+    e->upload();
+    for (int r = 0; r < 20; ++r) e->advance(7);
+  } catch (const Error& err) {
+    what = err.what();
+  }
+  std::printf("[measured] fixed-point range exceeded: %s\n", what.c_str());
+  EXPECT_NE(what.find("has a non-finite position"), std::string::npos) << what;
+  EXPECT_NE(what.find("BIODEM_GPU_SUMS=fixed"), std::string::npos) << what;
+  EXPECT_NE(what.find("beyond its range of"), std::string::npos) << what;
+}

@@ -250,7 +250,9 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_TEST_GPU_FAULT_AT_STEP=0", "BIODEM_GPU_BLOCK=100", "BIODEM_GPU_ROW_LANES=3",
                                 "BIODEM_GPU_BUILD_LANES=0", "BIODEM_GPU_BUILD_LANES=64",
                                 "BIODEM_TEST_GPU_FAULT_IN_THRUST=2", "BIODEM_GPU_SUM_LANES=2", "BIODEM_GPU_WALK_KICK=yes",
-                                "BIODEM_GPU_PDL=on"}) {
+                                "BIODEM_GPU_PDL=on", "BIODEM_GPU_SUMS=sorted",
+                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=rows",
+                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -265,6 +267,12 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                        biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
+  const std::string fixed = fresh_dir("gpu_fixed_sums");  // the order-free family runs and says so
+  r = run_command("BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=auto " + biodem_exe() + " run " + kNeedles + " --out " +
+                  fixed + " --device " + gpu_device());
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(slurp(fixed + "/run.log").find("fixed-point sums in any order"), std::string::npos)
+      << slurp(fixed + "/run.log");
 }
 
 // The switches the CUDA engine applies (BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES, BIODEM_GPU_BUILD_LANES,
