@@ -821,6 +821,9 @@ class NamedErrorsEngine final : public DeviceEngine {
   double fixed_torque_quantum() const override { return e_.fixed_torque_quantum(); }
   void set_fixed_caps(double force_cap_n, double torque_cap_n_m) override { e_.set_fixed_caps(force_cap_n, torque_cap_n_m); }
   std::uint64_t fixed_sum_passes() const override { return e_.fixed_sum_passes(); }
+  std::int64_t listed_pairs() override {
+    return thrust_errors_named("a download of the pair count", [&] { return e_.listed_pairs(); });
+  }
   std::string profile_report() const override { return e_.profile_report(); }
   void set_sort_every(std::uint32_t builds) override { e_.set_sort_every(builds); }
   std::uint64_t body_sorts() const override { return e_.body_sorts(); }

@@ -13,6 +13,8 @@
 #include <thrust/iterator/transform_iterator.h>
 #include <thrust/reduce.h>
 #include <thrust/scan.h>
+#include <thrust/transform_scan.h>
+#include <thrust/fill.h>
 #include <thrust/scatter.h>
 #include <thrust/sequence.h>
 #include <thrust/sort.h>
@@ -166,6 +168,14 @@ class Engine final : public DeviceEngine {
         walk_kick_mode_ = WalkKick::off;
       }
     }
+    // BIODEM_GPU_PAIR_LIST=compact|full: the per-contact passes over a list of the pairs'
+    // lower-id entries made at each list build (the default), or over every row entry and wall
+    // slot (most of whose threads do nothing). The same bits either way.
+    if (const char* pl = std::getenv("BIODEM_GPU_PAIR_LIST"); pl && *pl) {
+      const std::string v(pl);
+      if (v != "compact" && v != "full") throw Error("BIODEM_GPU_PAIR_LIST = '" + v + "': expected compact or full");
+      compact_pairs_ = v == "compact";
+    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -266,6 +276,12 @@ class Engine final : public DeviceEngine {
     invalidate_graphs();
   }
   std::uint64_t fixed_sum_passes() const override { return fixed_passes_; }
+  std::int64_t listed_pairs() override {
+    if (!compact_pairs_) return -1;
+    std::vector<std::uint32_t> c;
+    to_host(c, pair_count_);
+    return c.empty() ? 0 : c[0];
+  }
   std::string profile_report() const override;
   std::string contact_kernels() const override {
     auto us = [](double seconds) {
@@ -645,6 +661,42 @@ class Engine final : public DeviceEngine {
     return timed_choice() && use_entry_kernels() && tuned_set() == 3;
   }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
+  /// The pair list of the per-contact passes (ContactArgs::PairList; BIODEM_GPU_PAIR_LIST):
+  /// the lower-id entries in index order, rebuilt at each list build; its capacity grows only
+  /// (the CUDA graphs hold its address), with an eighth to spare.
+  bool compact_pairs_ = true;
+  std::uint64_t row_entries_ = 0;          // entries of all rows at the last build (each pair twice)
+  vec<std::uint32_t> pair_k_, pair_offset_;
+  vec<std::uint32_t> pair_count_ = vec<std::uint32_t>(1, 0u);
+  std::uint32_t pair_cap_ = 0;
+  void build_pair_list() {
+    const std::uint32_t n = ns(), total = rows_.cap * n;
+    const std::uint64_t pairs = row_entries_ / 2;
+    if (pairs > pair_cap_ || pair_k_.empty()) {
+      const std::uint64_t cap = pairs + pairs / 8 + 32;
+      if (cap > 0xffffffffull) throw Error("GPU engine: " + std::to_string(pairs) + " pairs exceed 2^32 (32-bit indices)");
+      pair_cap_ = static_cast<std::uint32_t>(cap);
+      pair_k_.resize(pair_cap_);
+      invalidate_graphs();
+    }
+    if (total == 0) {
+      thrust::fill(queue(), pair_count_.begin(), pair_count_.end(), 0u);
+      return;
+    }
+    pair_offset_.resize(total);
+    const LowerSide lower{rows_.arrays(), raw<std::uint32_t>(s_sid_), n};
+    thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
+                                     thrust::counting_iterator<std::uint32_t>(total), pair_offset_.begin(), lower, 0u,
+                                     thrust::plus<std::uint32_t>());
+    launch(total, ScatterLowerSides{lower, raw<std::uint32_t>(pair_offset_), total, pair_cap_, raw<std::uint32_t>(pair_k_),
+                                    raw<std::uint32_t>(pair_count_), raw<std::uint32_t>(mirror_missing_)});
+  }
+  std::uint32_t pair_pass_threads() const {
+    ContactArgs::PairList l;
+    l.on = compact_pairs_;
+    l.cap = pair_cap_;
+    return ContactArgs::pass_threads(l, rows_.cap, n_walls_, ns());
+  }
   /// The order-free family (BIODEM_GPU_SUMS=fixed): the per-sphere sums as fixed-point integers
   /// (FixedSumArrays), their grid chosen at upload (fixed_grid) unless a test set it.
   bool fixed_sums_ = false;
@@ -1057,8 +1109,10 @@ inline void Engine::build_list(const Box* known_box) {
     } else {
       launch(n, BuildRows{args});
     }
-    const std::uint32_t longest =
-        thrust::reduce(exec(), rows_.length.begin(), rows_.length.end(), 0u, thrust::maximum<std::uint32_t>());
+    const RowLengths lengths = thrust::transform_reduce(exec(), rows_.length.begin(), rows_.length.end(), RowLengthOf{},
+                                                        RowLengths{}, RowLengthsMax{});
+    const std::uint32_t longest = lengths.longest;
+    row_entries_ = lengths.total;
     if (longest <= cap) break;
     cap = longest + longest / 4 + 1;
     ++widenings_;
@@ -1070,6 +1124,7 @@ inline void Engine::build_list(const Box* known_box) {
                 " entries and " + std::to_string(n_walls_) + " walls exceed 2^32 entries (32-bit indices)");
   // Each pair's other entry, for PairEntries (which evaluates a pair once, from its lower-id side).
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
+  if (compact_pairs_) build_pair_list();
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
   if (use_entry_kernels() || tuning_under_way()) ensure_entry_buffers();
@@ -1150,6 +1205,12 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   ContactArgs c;
   c.s = sphere_arrays();
   c.rows = rows_.arrays();
+  if (compact_pairs_) {
+    c.pair_list.k = raw<std::uint32_t>(pair_k_);
+    c.pair_list.count = raw<std::uint32_t>(pair_count_);
+    c.pair_list.cap = pair_cap_;
+    c.pair_list.on = true;
+  }
   c.rows.entry_force = raw<Vec3>(entry_force_);
   c.rows.entry_torque = raw<Vec3>(entry_torque_);
   c.rows.wall_force = raw<Vec3>(wall_force_);
@@ -1186,12 +1247,12 @@ void Engine::launch_forces(const ContactArgs& c) {
     PairEntriesFixed<Cohesion, Rolling> pe;
     static_cast<ContactArgs&>(pe) = c;
     pe.fx = fixed_arrays();
-    launch((rows_.cap + n_walls_) * ns(), pe);
+    launch(pair_pass_threads(), pe);
     launch(ns(), TakeFixedSums{pe.fx, c.s, c.halt});
     return;
   }
   if (entries_ready()) {
-    launch((rows_.cap + n_walls_) * ns(), PairEntries<Cohesion, Rolling>{c});
+    launch(pair_pass_threads(), PairEntries<Cohesion, Rolling>{c});
     if (sum_lanes()) {
       if (ns()) System::launch_walks(ns(), SumEntriesWalk{c}, false);
     } else {
@@ -1263,7 +1324,7 @@ void Engine::launch_pair_entries_fixed(const ContactArgs& c, const FixedSumArray
   PairEntriesFixed<Cohesion, Rolling> pe;
   static_cast<ContactArgs&>(pe) = c;
   pe.fx = fx;
-  launch((rows_.cap + n_walls_) * ns(), pe);
+  launch(pair_pass_threads(), pe);
 }
 
 inline void Engine::fixed_grid() {
@@ -1292,7 +1353,7 @@ void Engine::launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd)
 }
 
 inline void Engine::launch_pair_entries(const ContactArgs& c) {
-  const std::uint32_t n = (rows_.cap + n_walls_) * ns();
+  const std::uint32_t n = pair_pass_threads();
   if (cohesion_) {
     if (rolling_) launch(n, PairEntries<true, true>{c});
     else launch(n, PairEntries<true, false>{c});

@@ -215,6 +215,20 @@ struct MotionMax {
   }
 };
 
+/// The longest row and the entries of all rows, in one reduction (the list build).
+struct RowLengths {
+  std::uint32_t longest = 0;
+  std::uint64_t total = 0;
+};
+struct RowLengthOf {
+  BIODEM_HD RowLengths operator()(std::uint32_t len) const { return RowLengths{len, len}; }
+};
+struct RowLengthsMax {
+  BIODEM_HD RowLengths operator()(const RowLengths& a, const RowLengths& b) const {
+    return RowLengths{a.longest > b.longest ? a.longest : b.longest, a.total + b.total};
+  }
+};
+
 struct IsNotFinite {
   SphereArrays s;
   BIODEM_HD bool operator()(std::uint32_t i) const {
@@ -829,6 +843,52 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
+  /// The pairs' lower-id entries, listed at each list build (LowerSides, ScatterLowerSides): the
+  /// per-contact passes launch one thread per listed entry (`cap` threads, those from `*count`
+  /// on doing nothing) and one per wall slot, instead of one per row entry and wall slot. Off
+  /// (BIODEM_GPU_PAIR_LIST=full): one per row entry and wall slot.
+  struct PairList {
+    const std::uint32_t* k = nullptr;
+    const std::uint32_t* count = nullptr;
+    std::uint32_t cap = 0;
+    bool on = false;
+  } pair_list;
+
+  /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a) for the
+  /// entry k of sphere a's row that is its pair's lower-id side, wall(a, w) for sphere a and wall
+  /// w; nothing for the other threads (a pair's higher-id side, entries past a row's end, listed
+  /// slots past the count). The threads of a pass: pass_threads.
+  template <class Pair, class Wall>
+  BIODEM_HD void pair_pass(std::uint32_t t, const Pair& pair, const Wall& wall) const {
+    if (pair_list.on) {
+      if (t < pair_list.cap) {
+        if (t >= *pair_list.count) return;
+        const std::uint32_t k = pair_list.k[t], a = k % n;
+        pair(k, a, s.sid[a]);
+        return;
+      }
+      const std::uint32_t slot = t - pair_list.cap;
+      wall(slot % n, slot / n);
+      return;
+    }
+    const std::uint32_t a = t % n, q = t / n;
+    if (q >= rows.cap) {
+      wall(a, q - rows.cap);
+      return;
+    }
+    // (Loading the row's length, the sphere's stable id, the entry's head and its mirror in one
+    // round, before the two exits below, was measured slower on an H100 where this kernel is
+    // throughput-bound: 53.4 against 46.8 us/step on the raw drum, 36.2 against 31.4 on the
+    // glass drum, with no gain on the small one; docs/gpu.md section 4. Most threads exit here.)
+    if (q >= rows.length[a]) return;
+    const std::uint32_t sid_a = s.sid[a];
+    if (!(sid_a < rows.sid[t])) return;  // the pair's higher-id side: written by the other entry
+    pair(t, a, sid_a);
+  }
+  /// The threads of a per-contact pass over rows of `cap` entries and `walls` walls.
+  static std::uint32_t pass_threads(const PairList& l, std::uint32_t cap, std::uint32_t walls, std::uint32_t n) {
+    return (l.on ? l.cap : cap * n) + walls * n;
+  }
 
   /// What a force kernel reads of entry k first: the neighbour, its stable id and whether the
   /// pair touched at the last evaluation.
@@ -1023,35 +1083,60 @@ struct ContactArgs {
 /// rows are read (download, a switch to Forces).
 template <bool Cohesion, bool Rolling>
 struct PairEntries : ContactArgs {
-  BIODEM_HD void operator()(std::uint32_t k) const {
+  BIODEM_HD void operator()(std::uint32_t t) const {
     if (halted(halt)) return;
+    pair_pass(
+        t,
+        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a) {
+          const std::uint32_t m = rows.mirror[k];
+          Vec3 fl, ta, tb;
+          bool a_low = true;
+          const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
+          rows.touching[m] = touching ? 1 : 0;
+          if (touching) {
+            rows.entry_force[k] = fl;
+            rows.entry_torque[k] = ta;
+            rows.entry_force[m] = fl;
+            rows.entry_torque[m] = tb;
+          }
+        },
+        [this](std::uint32_t a, std::uint32_t w) {
+          Vec3 fw, tw;
+          if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
+            rows.wall_force[w * n + a] = fw;
+            rows.wall_torque[w * n + a] = tw;
+          }
+        });
+  }
+};
+
+/// Whether entry k of the rows is its pair's lower-id side (the entry a per-contact pass
+/// evaluates), as 0 or 1: the scan of the pair list's build.
+struct LowerSide {
+  RowArrays rows;
+  const std::uint32_t* sid;
+  std::uint32_t n;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t k) const {
     const std::uint32_t a = k % n, q = k / n;
-    if (q >= rows.cap) {
-      const std::uint32_t w = q - rows.cap;
-      Vec3 fw, tw;
-      if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
-        rows.wall_force[w * n + a] = fw;
-        rows.wall_torque[w * n + a] = tw;
-      }
-      return;
-    }
-    // (Loading the row's length, the sphere's stable id, the entry's head and its mirror in one
-    // round, before the two exits below, was measured slower on an H100 where this kernel is
-    // throughput-bound: 53.4 against 46.8 us/step on the raw drum, 36.2 against 31.4 on the
-    // glass drum, with no gain on the small one; docs/gpu.md section 4. Most threads exit here.)
-    if (q >= rows.length[a]) return;
-    const std::uint32_t sid_a = s.sid[a];
-    if (!(sid_a < rows.sid[k])) return;  // the pair's higher-id side: written by the other entry
-    const std::uint32_t m = rows.mirror[k];
-    Vec3 fl, ta, tb;
-    bool a_low = true;
-    const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
-    rows.touching[m] = touching ? 1 : 0;
-    if (touching) {
-      rows.entry_force[k] = fl;
-      rows.entry_torque[k] = ta;
-      rows.entry_force[m] = fl;
-      rows.entry_torque[m] = tb;
+    return q < rows.length[a] && sid[a] < rows.sid[k] ? 1u : 0u;
+  }
+};
+/// The pair list from the exclusive scan of LowerSide over the `total` entries (one thread per
+/// entry): each lower-id entry k at its place, so the list holds them in index order; the last
+/// thread writes the count. A list that does not fit `cap` (the host's bound: half the entries
+/// of rows that hold each pair twice) sets `missing` (read at downloads) and keeps `cap`.
+struct ScatterLowerSides {
+  LowerSide lower;
+  const std::uint32_t* offset;
+  std::uint32_t total, cap;
+  std::uint32_t *pair_k, *count, *missing;
+  BIODEM_HD void operator()(std::uint32_t k) const {
+    const std::uint32_t f = lower(k), o = offset[k];
+    if (f && o < cap) pair_k[o] = k;
+    if (k + 1 == total) {
+      const std::uint32_t c = o + f;
+      *count = c < cap ? c : cap;
+      if (c > cap) *missing = 1;
     }
   }
 };
@@ -1555,24 +1640,23 @@ struct FixedSumArrays {
 template <bool Cohesion, bool Rolling>
 struct PairEntriesFixed : ContactArgs {
   FixedSumArrays fx;
-  BIODEM_HD void operator()(std::uint32_t k) const {
+  BIODEM_HD void operator()(std::uint32_t t) const {
     if (halted(halt)) return;
-    const std::uint32_t a = k % n, q = k / n;
-    if (q >= rows.cap) {
-      Vec3 fw, tw;
-      if (wall_entry<Cohesion, Rolling>(a, q - rows.cap, fw, tw)) fx.add(a, fw, tw, true);
-      return;
-    }
-    if (q >= rows.length[a]) return;
-    const std::uint32_t sid_a = s.sid[a];
-    const EntryHead e = entry_head(k);
-    if (!(sid_a < e.sid_b)) return;  // the pair's higher-id side: added by the other entry
-    const std::uint32_t m = rows.mirror[k];
-    Vec3 fl, ta, tb;
-    bool a_low = true;
-    const bool touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
-    rows.touching[m] = touching ? 1 : 0;
-    if (touching) fx.add_pair(a, e.b, fl, ta, tb);
+    pair_pass(
+        t,
+        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a) {
+          const EntryHead e = entry_head(k);
+          const std::uint32_t m = rows.mirror[k];
+          Vec3 fl, ta, tb;
+          bool a_low = true;
+          const bool touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
+          rows.touching[m] = touching ? 1 : 0;
+          if (touching) fx.add_pair(a, e.b, fl, ta, tb);
+        },
+        [this](std::uint32_t a, std::uint32_t w) {
+          Vec3 fw, tw;
+          if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) fx.add(a, fw, tw, true);
+        });
   }
 };
 
