@@ -12,9 +12,10 @@
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
 #      and BIODEM_GPU_CHECK_EVERY (most steps between list checks), the default first and again
 #      last (the spread of the two is the noise).
-# No setting changes results: they change which of two bit-identical kernel sets runs, how the
-# kernels are launched and when the list is rebuilt, and results do not depend on the rebuild
-# (docs/gpu.md section 2).
+# No setting but one changes results: they change which of the bit-identical kernel sets runs,
+# how the kernels are launched and when the list is rebuilt, and results do not depend on the
+# rebuild (docs/gpu.md section 2). The exception is BIODEM_GPU_SUMS=fixed, the order-free
+# family, whose fixed-point sums give results of their own (the same on any device).
 #
 #   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
 #                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES
@@ -92,10 +93,12 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=entries \
+  BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_PDL=0 \
   BIODEM_GPU_PROFILE=1 BIODEM_GPU_PROFILE=1+BIODEM_GPU_BUILD_LANES=1 \
-  BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows \
+  BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=2 BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 \
   BIODEM_GPU_SKIN_DIAMETERS=0.25 BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_SKIN_DIAMETERS=1 BIODEM_GPU_QUEUED_CHECK=0 default}
 [ -n "$settings" ] || exit 0

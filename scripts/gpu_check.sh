@@ -23,13 +23,17 @@
 #      (BIODEM_TEST_GPU_FAULT_AT_STEP; on a GPU also met inside Thrust) ends the run with one
 #      error line and status 2, not std::terminate;
 #      (3i) each contact kernel set forced (the entry kernels also with their sums by the row
-#      lanes, BIODEM_GPU_SUM_LANES=1), and on a GPU the row walk with 1, 2 and 32 lanes and
+#      lanes, BIODEM_GPU_SUM_LANES=1, and over every row entry instead of the pair list,
+#      BIODEM_GPU_PAIR_LIST=full), and on a GPU the row walk with 1, 2 and 32 lanes and
 #      blocks of 32 and 512 threads, byte-identical to (3);
 #      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
 #      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
+#      (3k, after 5) the order-free family (BIODEM_GPU_SUMS=fixed): two runs byte-identical
+#      (emulated, the second on 2 threads with every kernel parallel), killed and resumed
+#      byte-identical, within the tolerances of (5) of the CPU engine;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
 #      row, the single-sphere body kernel with its sums by the row lanes and the row walk with
@@ -52,7 +56,8 @@
 #                        entries, rows1: the row walk by one thread per sphere, sumlanes:
 #                        the entry kernels with their sums by the row lanes, spheres: the
 #                        same on the wide-row scene of single spheres, walkkick: the row
-#                        walk with the body update on that scene); default the ten of
+#                        walk with the body update on that scene, fixed: the order-free
+#                        family on the 40k drum); default the eleven of
 #                        docs/gpu.md section 6, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
@@ -263,13 +268,14 @@ done
 BIODEM_GPU_FORCES=rows run_biodem needles_rows "$needles" "$OUT/needles_rows" --device "$DEVICE"; sr=$?
 BIODEM_GPU_FORCES=entries run_biodem needles_entries "$needles" "$OUT/needles_entries" --device "$DEVICE"; se=$?
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem needles_sum_lanes "$needles" "$OUT/needles_sum_lanes" --device "$DEVICE"; sl=$?
-lanes_ok=1; d1=""; d2=""; d3=""; d=""
-lanes_detail="rows, entries and entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1) forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt)"
+BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem needles_full_pass "$needles" "$OUT/needles_full_pass" --device "$DEVICE"; sp=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d=""
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1) and entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
-     ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3)"
+     ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4)"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -380,6 +386,43 @@ else
   record "5. needle drum vs CPU engine" FAIL "$detail"
 fi
 
+# 3k. The order-free family (BIODEM_GPU_SUMS=fixed: each contact added to its spheres' sums as
+# fixed-point integers, by atomic additions in whatever order the threads come): two runs
+# byte-identical (on a GPU the additions race; emulated, the second on 2 CPU threads with every
+# kernel parallel), a kill at step 9,001 resumed to the same bytes, and the run within the
+# tolerances of (5) of the CPU engine.
+BIODEM_GPU_SUMS=fixed run_biodem needles_fixed "$needles" "$OUT/needles_fixed" --device "$DEVICE"; sf1=$?
+if [ "$DEVICE" = gpu ]; then
+  BIODEM_GPU_SUMS=fixed run_biodem needles_fixed2 "$needles" "$OUT/needles_fixed2" --device "$DEVICE"; sf2=$?
+else
+  rm -rf "$OUT/needles_fixed2"
+  BIODEM_GPU_SUMS=fixed BIODEM_TEST_PARALLEL_THRESHOLD=0 "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed2" \
+    --threads 2 --device "$DEVICE" > "$logs/needles_fixed2.txt" 2>&1; sf2=$?
+fi
+BIODEM_GPU_SUMS=fixed BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_fixed_kill "$needles" "$OUT/needles_fixed_kill" --device "$DEVICE"; sfk=$?
+BIODEM_GPU_SUMS=fixed "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed_kill" --threads "$THREADS" --device "$DEVICE" \
+  --resume > "$logs/needles_fixed_resume.txt" 2>&1; sfr=$?
+fixed_ok=1; fixed_detail=""
+if [ $sf1 -ne 0 ] || [ $sf2 -ne 0 ]; then
+  fixed_ok=0; fixed_detail="a run failed (logs/needles_fixed.txt, needles_fixed2.txt)"
+elif ! grep -q 'fixed-point sums in any order' "$OUT/needles_fixed/run.log"; then
+  fixed_ok=0; fixed_detail="run.log does not name the fixed-point sums"
+elif ! d=$(same_files "$OUT/needles_fixed" "$OUT/needles_fixed2"); then
+  fixed_ok=0; fixed_detail="two runs differ: $(echo $d)"
+elif [ $sfk -ne 137 ] || [ $sfr -ne 0 ]; then
+  fixed_ok=0; fixed_detail="kill status $sfk (137 expected), resume status $sfr"
+elif ! d=$(same_files "$OUT/needles_fixed" "$OUT/needles_fixed_kill"); then
+  fixed_ok=0; fixed_detail="killed and resumed differs: $(echo $d)"
+elif [ $sc -ne 0 ]; then
+  fixed_ok=0; fixed_detail="the CPU engine's run failed (logs/needles_cpu.txt)"
+elif ! d=$(compare_engines needles "$OUT/needles_cpu" "$OUT/needles_fixed" 0.5 0.05); then
+  fixed_ok=0; fixed_detail="against the CPU engine: $d"
+else
+  fixed_detail="two runs byte-identical$([ "$DEVICE" = gpu ] || echo ' (the second on 2 threads, every kernel parallel)'), killed at step 9,001 and resumed byte-identical; against the CPU engine: $d; $(grep -o 'quanta [^)]*' "$OUT/needles_fixed/run.log" | head -n 1)"
+fi
+[ $fixed_ok = 1 ] && record "3k. order-free family (BIODEM_GPU_SUMS=fixed)" PASS "$fixed_detail" ||
+  record "3k. order-free family (BIODEM_GPU_SUMS=fixed)" FAIL "$fixed_detail"
+
 # ------------------------------------------------------------------------- 6. wider rows
 wide=tests/cases/gpu_wide_rows_tiny.toml
 run_biodem wide_a "$wide" "$OUT/wide_a" --device "$DEVICE"; wa=$?
@@ -421,7 +464,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -434,6 +477,7 @@ if [ "$DEVICE" = gpu ]; then
       walkkick) what=", row walk in one thread with the body update (two buffers)"
                 envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1)
                 scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
+      fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool ($scene_name$what)"
