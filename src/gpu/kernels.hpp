@@ -1611,24 +1611,38 @@ struct FixedSumArrays {
     }
     fixed::atomic_add(count + i, 1u);
   }
-  /// Sphere i's sums as doubles (not-a-number when a contribution was refused), then zeroed for
-  /// the next step.
-  BIODEM_HD void take(std::uint32_t i, Vec3& f, Vec3& t, std::uint32_t& contacts) const {
+  /// Sphere i's sums as loaded (load), zeroed for the next step (clear), as doubles (convert:
+  /// not-a-number when a contribution was refused); take does the three.
+  struct Raw {
     long long q[6];
-    for (std::uint32_t c = 0; c < 6; ++c) q[c] = sums[c * n + i];
-    const std::uint32_t k = count[i];
+    std::uint32_t k;
+  };
+  BIODEM_HD Raw load(std::uint32_t i) const {
+    Raw r;
+    for (std::uint32_t c = 0; c < 6; ++c) r.q[c] = sums[c * n + i];
+    r.k = count[i];
+    return r;
+  }
+  BIODEM_HD void clear(std::uint32_t i) const {
     for (std::uint32_t c = 0; c < 6; ++c) sums[c * n + i] = 0;
     count[i] = 0;
-    f = Vec3{fixed::from_fixed(q[0], force_quantum), fixed::from_fixed(q[1], force_quantum),
-             fixed::from_fixed(q[2], force_quantum)};
-    t = Vec3{fixed::from_fixed(q[3], torque_quantum), fixed::from_fixed(q[4], torque_quantum),
-             fixed::from_fixed(q[5], torque_quantum)};
-    contacts = k & ~fixed::kOutOfRange;
-    if (k & fixed::kOutOfRange) {
+  }
+  BIODEM_HD void convert(const Raw& r, Vec3& f, Vec3& t, std::uint32_t& contacts) const {
+    f = Vec3{fixed::from_fixed(r.q[0], force_quantum), fixed::from_fixed(r.q[1], force_quantum),
+             fixed::from_fixed(r.q[2], force_quantum)};
+    t = Vec3{fixed::from_fixed(r.q[3], torque_quantum), fixed::from_fixed(r.q[4], torque_quantum),
+             fixed::from_fixed(r.q[5], torque_quantum)};
+    contacts = r.k & ~fixed::kOutOfRange;
+    if (r.k & fixed::kOutOfRange) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
       f = Vec3{nan, nan, nan};
       t = f;
     }
+  }
+  BIODEM_HD void take(std::uint32_t i, Vec3& f, Vec3& t, std::uint32_t& contacts) const {
+    const Raw r = load(i);
+    clear(i);
+    convert(r, f, t, contacts);
   }
 };
 
@@ -1687,16 +1701,30 @@ struct ReduceKickDriftFixed {
     if (halted(rkd.halt)) return;
     const BodyState st = load_body(rkd.b, k);
     Vec3 f = st.m * rkd.gravity, t{};
-    for (std::uint32_t i = st.s0; i < st.s0 + st.ns; ++i) {
-      Vec3 fs, ts;
-      std::uint32_t count = 0;
-      const Vec3 p = rkd.s.position[i];
-      fx.take(i, fs, ts, count);
-      rkd.s.force[i] = fs;
-      rkd.s.torque[i] = ts;
-      rkd.s.contacts[i] = count;
-      f += fs;
-      t += ts + cross(p - st.x, fs);
+    // Two spheres at a time: every load of a chunk (sums, centres) before its first store, so
+    // that a GPU thread waits for memory once per chunk, not once per sphere (a load cannot
+    // move above a store it might alias). (Four spilled 152 bytes at 128 registers, sm_90.)
+    constexpr std::uint32_t kChunk = 2;
+    for (std::uint32_t c0 = 0; c0 < st.ns; c0 += kChunk) {
+      FixedSumArrays::Raw r[kChunk];
+      Vec3 p[kChunk];
+      for (std::uint32_t c = 0; c < kChunk; ++c)
+        if (c0 + c < st.ns) {
+          r[c] = fx.load(st.s0 + c0 + c);
+          p[c] = rkd.s.position[st.s0 + c0 + c];
+        }
+      for (std::uint32_t c = 0; c < kChunk && c0 + c < st.ns; ++c) {
+        const std::uint32_t i = st.s0 + c0 + c;
+        Vec3 fs, ts;
+        std::uint32_t count = 0;
+        fx.clear(i);
+        fx.convert(r[c], fs, ts, count);
+        rkd.s.force[i] = fs;
+        rkd.s.torque[i] = ts;
+        rkd.s.contacts[i] = count;
+        f += fs;
+        t += ts + cross(p[c] - st.x, fs);
+      }
     }
     rkd.finish(k, st, f, t);
   }
