@@ -15,7 +15,8 @@
 # On the GPU machine, in order, each under its own time limit, so that a lease cut short still
 # leaves the most important figures: (0) the device and a smoke run; (1) "bench":
 # bench/run_gpu_bench.sh on the GPU with the CPU engine on all cores beside it, then the same GPU
-# runs with each contact kernel set forced (BIODEM_GPU_FORCES=entries, =rows) and, when prepared
+# runs with the order-free family (BIODEM_GPU_SUMS=fixed), with each contact kernel set forced
+# (BIODEM_GPU_FORCES=entries, =rows) and, when prepared
 # with --fmad, the -fmad=true build; (2) "check": scripts/gpu_check.sh on the carried build (GPU
 # tests, determinism, kill-and-resume, CPU agreement, wider rows, compute-sanitizer last);
 # (3) "sweep": bench/run_gpu_sweep.sh (ncu kernel durations, launch settings, skins);
@@ -104,6 +105,8 @@ elif want bench; then
 stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
 DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="${GPU_LEASE_CPU_THREADS-$(nproc)}" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
 stamp "bench: status $?"
+BIODEM_GPU_SUMS=fixed DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_fixed" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fixed.txt" 2>&1
+stamp "bench with the order-free family (BIODEM_GPU_SUMS=fixed): status $?"
 BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_entries" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_entries.txt" 2>&1
 stamp "bench with the entry force kernels (BIODEM_GPU_FORCES=entries): status $?"
 if [ -x devcarry/fmad/biodem ]; then  # made by --prepare --fmad
@@ -145,18 +148,18 @@ if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with
 fi
 
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
-variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\)$' | tr '\n' ' ')
-for b in bench bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\|fixed\)$' | tr '\n' ' ')
+for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
 (cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
 fi
 echo; cat "$O/lease.log"; echo
-for b in bench bench_entries bench_rows bench_fmad $variant_benches; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
+for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 # (which kernels the default runs picked, and the list builds: run.log of each bench drum)
-for f in "$O"/bench/gpu_*/run.log; do
-  [ -f "$f" ] && { echo "== $(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300; }
+for f in "$O"/bench/gpu_*/run.log "$O"/bench_fixed/gpu_*/run.log; do
+  [ -f "$f" ] && { echo "== $(basename "$(dirname "$(dirname "$f")")")/$(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300; }
 done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
 [ -f "$O/sweep/profile.txt" ] && { echo "== profile (BIODEM_GPU_PROFILE=1)"; cat "$O/sweep/profile.txt"; }
