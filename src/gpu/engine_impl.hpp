@@ -702,19 +702,16 @@ class Engine final : public DeviceEngine {
   bool fixed_sums_ = false;
   bool fixed_caps_set_ = false;
   double fixed_force_scale_ = 1.0, fixed_torque_scale_ = 1.0;
-  vec<long long> fixed_sums_buf_;      // 6 * ns(), zero between steps
-  vec<std::uint32_t> fixed_count_;     // ns()
+  vec<long long> fixed_sums_buf_;      // FixedSumArrays::kWords * ns(), zero between steps
   std::uint64_t fixed_passes_ = 0;     // steps whose sums were fixed-point
   void ensure_fixed_sums() {
-    if (fixed_count_.size() == ns() && fixed_sums_buf_.size() == 6 * static_cast<std::size_t>(ns())) return;
-    fixed_sums_buf_.assign(6 * static_cast<std::size_t>(ns()), 0);
-    fixed_count_.assign(ns(), 0u);
+    if (fixed_sums_buf_.size() == FixedSumArrays::kWords * static_cast<std::size_t>(ns())) return;
+    fixed_sums_buf_.assign(FixedSumArrays::kWords * static_cast<std::size_t>(ns()), 0);
     invalidate_graphs();
   }
   FixedSumArrays fixed_arrays() {
-    return {raw<long long>(fixed_sums_buf_), raw<std::uint32_t>(fixed_count_), ns(),
-            fixed_force_scale_, 1.0 / fixed_force_scale_, fixed_torque_scale_, 1.0 / fixed_torque_scale_,
-            fixed::limit_for(rows_.cap + n_walls_)};
+    return {raw<long long>(fixed_sums_buf_), fixed_force_scale_, 1.0 / fixed_force_scale_, fixed_torque_scale_,
+            1.0 / fixed_torque_scale_, fixed::limit_for(rows_.cap + n_walls_)};
   }
   /// The grid of the fixed-point sums from the case: contributions up to the Hertz and SJKR
   /// forces of the stiffest and most cohesive pair at an overlap of the largest radius (far
@@ -863,10 +860,7 @@ inline void Engine::upload() {
   to_device(s_material_, material);
   to_device(s_sid_, sid_host_);
   s_contacts_.assign(n, 0u);
-  if (fixed_sums_) {
-    fixed_sums_buf_.assign(6 * n, 0);
-    fixed_count_.assign(n, 0u);
-  }
+  if (fixed_sums_) fixed_sums_buf_.assign(FixedSumArrays::kWords * n, 0);
   // The host's order; the list build below sorts the bodies (when sorting is on).
   b_host_.resize(b.size());
   b_slot_.resize(b.size());

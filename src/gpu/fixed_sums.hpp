@@ -67,23 +67,5 @@ BIODEM_HD inline void atomic_add(long long* p, long long v) {
   __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 #endif
 }
-BIODEM_HD inline void atomic_add(std::uint32_t* p, std::uint32_t v) {
-#if defined(__CUDA_ARCH__)
-  atomicAdd(reinterpret_cast<unsigned int*>(p), static_cast<unsigned int>(v));
-#else
-  __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
-#endif
-}
-BIODEM_HD inline void atomic_or(std::uint32_t* p, std::uint32_t v) {
-#if defined(__CUDA_ARCH__)
-  atomicOr(reinterpret_cast<unsigned int*>(p), static_cast<unsigned int>(v));
-#else
-  __atomic_fetch_or(p, v, __ATOMIC_RELAXED);
-#endif
-}
-
-/// Bit of a sphere's contact count that marks a refused contribution (its sums are then taken
-/// as not-a-number, which stops the run at the next list check).
-inline constexpr std::uint32_t kOutOfRange = 0x80000000u;
 
 }  // namespace biodem::gpu::fixed

@@ -1563,16 +1563,17 @@ struct SumEntriesKickDriftWalk {
 };
 
 /// The per-sphere fixed-point sums of the order-free family (BIODEM_GPU_SUMS=fixed,
-/// fixed_sums.hpp): sums[c * n + i] for sphere i, c = 0..2 the force, 3..5 the torque, in quanta
-/// of force_quantum and torque_quantum; count[i] the contacts counted once (a pair by its lower-id
-/// side, a wall by its sphere), with fixed::kOutOfRange set when a contribution was refused. All
-/// zero between steps: the kernel that takes a sphere's sums zeroes them.
+/// fixed_sums.hpp): eight 64-bit words per sphere, sums[8 i + c]: c = 0..2 the force and 3..5 the
+/// torque in quanta of force_quantum and torque_quantum, 6 the contacts counted once (a pair by
+/// its lower-id side, a wall by its sphere), 7 nonzero when a contribution was refused. One
+/// sphere's words share 64 bytes (two 32-byte sectors), so a pair's additions to its other
+/// sphere touch two sectors, not seven lines. All zero between steps: the kernel that takes a
+/// sphere's sums zeroes them.
 struct FixedSumArrays {
   long long* sums;
-  std::uint32_t* count;
-  std::uint32_t n;
   double force_scale, force_quantum, torque_scale, torque_quantum;
   double limit;  // the largest |contribution| in quanta (fixed::limit_for of the row capacity and walls)
+  static constexpr std::uint32_t kWords = 8;
 
   /// Adds force f and torque t to sphere i's sums (and one to its count when `counted`); a
   /// component beyond the limit (or not a number) adds nothing and flags the sphere.
@@ -1581,12 +1582,13 @@ struct FixedSumArrays {
     const long long q[6] = {fixed::to_fixed(f.x, force_scale, limit, ok),  fixed::to_fixed(f.y, force_scale, limit, ok),
                             fixed::to_fixed(f.z, force_scale, limit, ok),  fixed::to_fixed(t.x, torque_scale, limit, ok),
                             fixed::to_fixed(t.y, torque_scale, limit, ok), fixed::to_fixed(t.z, torque_scale, limit, ok)};
+    long long* w = sums + static_cast<std::size_t>(kWords) * i;
     if (!ok) {
-      fixed::atomic_or(count + i, fixed::kOutOfRange);
+      fixed::atomic_add(w + 7, 1);
       return;
     }
-    for (std::uint32_t c = 0; c < 6; ++c) fixed::atomic_add(sums + c * n + i, q[c]);
-    if (counted) fixed::atomic_add(count + i, 1u);
+    for (std::uint32_t c = 0; c < 6; ++c) fixed::atomic_add(w + c, q[c]);
+    if (counted) fixed::atomic_add(w + 6, 1);
   }
   /// A pair's force on its lower-id sphere i (fl) and the torques on i (ti) and j (tj): the force
   /// is rounded once and added to i and, negated (exactly), to j; the pair is counted by i.
@@ -1598,42 +1600,43 @@ struct FixedSumArrays {
                             fixed::to_fixed(ti.z, torque_scale, limit, ok)};
     const long long b[3] = {fixed::to_fixed(tj.x, torque_scale, limit, ok), fixed::to_fixed(tj.y, torque_scale, limit, ok),
                             fixed::to_fixed(tj.z, torque_scale, limit, ok)};
+    long long* wi = sums + static_cast<std::size_t>(kWords) * i;
+    long long* wj = sums + static_cast<std::size_t>(kWords) * j;
     if (!ok) {
-      fixed::atomic_or(count + i, fixed::kOutOfRange);
-      fixed::atomic_or(count + j, fixed::kOutOfRange);
+      fixed::atomic_add(wi + 7, 1);
+      fixed::atomic_add(wj + 7, 1);
       return;
     }
     for (std::uint32_t c = 0; c < 3; ++c) {
-      fixed::atomic_add(sums + c * n + i, f[c]);
-      fixed::atomic_add(sums + c * n + j, -f[c]);
-      fixed::atomic_add(sums + (c + 3) * n + i, a[c]);
-      fixed::atomic_add(sums + (c + 3) * n + j, b[c]);
+      fixed::atomic_add(wi + c, f[c]);
+      fixed::atomic_add(wj + c, -f[c]);
+      fixed::atomic_add(wi + 3 + c, a[c]);
+      fixed::atomic_add(wj + 3 + c, b[c]);
     }
-    fixed::atomic_add(count + i, 1u);
+    fixed::atomic_add(wi + 6, 1);
   }
   /// Sphere i's sums as loaded (load), zeroed for the next step (clear), as doubles (convert:
   /// not-a-number when a contribution was refused); take does the three.
   struct Raw {
-    long long q[6];
-    std::uint32_t k;
+    long long q[8];
   };
   BIODEM_HD Raw load(std::uint32_t i) const {
     Raw r;
-    for (std::uint32_t c = 0; c < 6; ++c) r.q[c] = sums[c * n + i];
-    r.k = count[i];
+    const long long* w = sums + static_cast<std::size_t>(kWords) * i;
+    for (std::uint32_t c = 0; c < kWords; ++c) r.q[c] = w[c];
     return r;
   }
   BIODEM_HD void clear(std::uint32_t i) const {
-    for (std::uint32_t c = 0; c < 6; ++c) sums[c * n + i] = 0;
-    count[i] = 0;
+    long long* w = sums + static_cast<std::size_t>(kWords) * i;
+    for (std::uint32_t c = 0; c < kWords; ++c) w[c] = 0;
   }
   BIODEM_HD void convert(const Raw& r, Vec3& f, Vec3& t, std::uint32_t& contacts) const {
     f = Vec3{fixed::from_fixed(r.q[0], force_quantum), fixed::from_fixed(r.q[1], force_quantum),
              fixed::from_fixed(r.q[2], force_quantum)};
     t = Vec3{fixed::from_fixed(r.q[3], torque_quantum), fixed::from_fixed(r.q[4], torque_quantum),
              fixed::from_fixed(r.q[5], torque_quantum)};
-    contacts = r.k & ~fixed::kOutOfRange;
-    if (r.k & fixed::kOutOfRange) {
+    contacts = static_cast<std::uint32_t>(r.q[6]);
+    if (r.q[7] != 0) {
       const double nan = std::numeric_limits<double>::quiet_NaN();
       f = Vec3{nan, nan, nan};
       t = f;
