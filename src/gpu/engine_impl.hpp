@@ -289,7 +289,7 @@ class Engine final : public DeviceEngine {
       std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
       return std::string(b);
     };
-    if (fixed_sums_) {
+    if (fixed_sums_ && entries_ready()) {
       char q[96];
       std::snprintf(q, sizeof q, "quanta %.3g N and %.3g N m", 1.0 / fixed_force_scale_, 1.0 / fixed_torque_scale_);
       return std::string("per-contact with fixed-point sums in any order (PairEntriesFixed; ") + q +
@@ -995,7 +995,10 @@ inline void Engine::check_finite() {
 
 inline void Engine::build_list(const Box* known_box) {
   const std::uint32_t n = ns();
-  if (n == 0) return;
+  if (n == 0) {  // (no rows: the pair list of a scene uploaded before must not be read)
+    thrust::fill(queue(), pair_count_.begin(), pair_count_.end(), 0u);
+    return;
+  }
   Box box;
   if (known_box) {
     box = *known_box;
@@ -1391,7 +1394,7 @@ inline void Engine::run_units(std::uint32_t units) {
   const bool entries = entries_ready();
   if (fused) fused_units_ += units;
   if (two_buffers) walk_kick_units_ += units;
-  if (fused && single_spheres_ && entries) summed_in_kick_ += units;
+  if (fused && single_spheres_ && entries && !fixed_sums_) summed_in_kick_ += units;
   if (entries) entry_passes_ += units;
   if (entries && fixed_sums_) fixed_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is

@@ -9,9 +9,11 @@
 // a quantum (round to nearest, ties to even), so a sphere's sum is off by at most
 // (contributions / 2) quanta.
 //
-// The grid is chosen once per upload from the case (fixed_scale): contributions up to `cap` fit
-// in 2^56 quanta, and a contribution is refused (flagged, never wrapped) beyond `limit` quanta,
-// where limit * (row capacity + walls) <= 2^62, so no sum can overflow.
+// The grid is chosen once per upload from the case (Engine::fixed_grid, scale_for): contributions
+// up to a cap fit in 2^56 quanta; a contribution is refused (flagged, never wrapped) beyond
+// `limit` quanta, where limit * (row capacity + walls) = 2^62, so no sum can overflow. For rows
+// and walls of more than 64 slots the limit falls below 2^56 quanta, so below the cap (which is
+// itself far above any force of a stable run: docs/gpu.md section 2).
 #pragma once
 #include <cmath>
 #include <cstdint>

@@ -1528,3 +1528,110 @@ TEST(GpuEngine, PairListGivesTheBitsOfThePassOverEveryEntry) {
     EXPECT_GT(ea->entry_force_passes(), steps / 2);
   }
 }
+
+// The order-free family through its switch (BIODEM_GPU_SUMS=fixed, as the physics tests' second
+// run in ctest, GpuEngineFixedSums.PhysicsTests, sets it): the engine runs the fixed-point sums
+// and says so; with fixed-point sums fused and unfused body kernels give the same bits; turning
+// the family off and on again mid-run, or a settle phase that halts the kernels, leaves no sums
+// behind (the run goes on bit-identical to an engine uploaded from its state); and asking for the
+// row walk turns the fixed-point sums off in fact and in the report.
+TEST(GpuEngine, FixedSumsByTheSwitchFusedUnfusedAndMidRun) {
+  {
+    auto s = packing(0.5e-3);
+    ::setenv("BIODEM_GPU_SUMS", "fixed", 1);
+    auto e = gpu_engine(*s);
+    ::unsetenv("BIODEM_GPU_SUMS");
+    e->upload();
+    e->advance(30);
+    EXPECT_TRUE(e->fixed_sums());
+    EXPECT_EQ(e->fixed_sum_passes(), 30u);
+    EXPECT_NE(e->contact_kernels().find("fixed-point"), std::string::npos) << e->contact_kernels();
+  }
+  {
+    const auto r = stepped_alike(
+        0.5e-3, false, true, [](gpu::DeviceEngine& e) { e.set_fixed_sums(true); },
+        [](gpu::DeviceEngine& e) {
+          e.set_fixed_sums(true);
+          e.set_fused_kick(false);
+        });
+    EXPECT_EQ(r.ea->fixed_sum_passes(), r.steps);
+    EXPECT_EQ(r.eb->fixed_sum_passes(), r.steps);
+    EXPECT_GT(r.ea->fused_steps(), r.steps / 2);
+    EXPECT_EQ(r.eb->fused_steps(), 0u);
+  }
+  // continue engine e on its host s, against a fresh engine uploaded from s's state
+  auto continue_vs_fresh = [](gpu::DeviceEngine& e, sim::Simulation& s, std::uint64_t steps) {
+    e.download(true);
+    auto c = std::make_unique<sim::Simulation>(s);
+    auto ec = gpu_engine(*c);
+    ec->set_fixed_sums(true);
+    ec->upload();
+    e.advance(steps);
+    ec->advance(steps);
+    e.download(true);
+    ec->download(true);
+    return first_difference(s, *c);
+  };
+  {
+    auto s = packing(0.5e-3);
+    auto e = gpu_engine(*s);
+    e->set_fixed_sums(true);
+    e->upload();
+    e->advance(57);
+    e->set_fixed_sums(false);
+    e->advance(31);
+    e->set_fixed_sums(true);
+    EXPECT_EQ(continue_vs_fresh(*e, *s, 120), "") << "off and on again";
+  }
+  {
+    auto s = packing(0.5e-3);
+    auto e = gpu_engine(*s);
+    e->set_fixed_sums(true);
+    e->upload();
+    e->advance(40);
+    gpu::DeviceEngine::SettleCriterion c;
+    c.threshold_j = 1e30;
+    c.min_steps = 13;
+    e->begin_settle(c, 0, 0);
+    const auto r = e->advance(100);
+    EXPECT_TRUE(r.settled);
+    EXPECT_EQ(r.steps, 13u);
+    e->end_settle();
+    EXPECT_EQ(continue_vs_fresh(*e, *s, 120), "") << "after a halted settle phase";
+  }
+  {
+    auto s = packing(0.5e-3);
+    auto e = gpu_engine(*s);
+    e->set_fixed_sums(true);
+    e->set_entry_forces(false);  // the row walk: ordered sums
+    e->upload();
+    e->advance(20);
+    EXPECT_EQ(e->fixed_sum_passes(), 0u);
+    EXPECT_EQ(e->contact_kernels().find("fixed-point"), std::string::npos) << e->contact_kernels();
+  }
+}
+
+// A scene uploaded empty after one with pairs: the pair list of the first is not read (before:
+// the passes read its count and divided by zero spheres).
+TEST(GpuEngine, EmptySceneAfterAFullOneRunsWithThePairList) {
+  for (const bool fixed : {false, true}) {
+    auto s = packing(0.5e-3);
+    auto e = gpu_engine(*s);
+    e->set_entry_forces(true);
+    if (fixed) e->set_fixed_sums(true);
+    e->upload();
+    e->advance(20);
+    EXPECT_GT(e->listed_pairs(), 0);
+    SimSetup su;
+    su.particle = {5e6, 0.3, 1000.0};
+    su.wall = {5e6, 0.3, 0.0};
+    su.particle_particle = {0.5, 0.5, 0.3, 0.0};
+    su.particle_wall = {0.5, 0.4, 0.5, 0.0};
+    su.templates = {sphere_template(0.5e-3)};
+    su.dt_s = 1e-5;
+    *s = make_simulation(su);
+    e->upload();
+    EXPECT_EQ(e->listed_pairs(), 0);
+    EXPECT_EQ(e->advance(5).steps, 5u);
+  }
+}
