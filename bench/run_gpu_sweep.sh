@@ -15,7 +15,7 @@
 # No setting but one changes results: they change which of the bit-identical kernel sets runs,
 # how the kernels are launched and when the list is rebuilt, and results do not depend on the
 # rebuild (docs/gpu.md section 2). The exception is BIODEM_GPU_SUMS=fixed, the order-free
-# family, whose fixed-point sums give results of their own (the same on any device).
+# family, whose fixed-point sums give results of their own (the same on any number of threads).
 #
 #   bash bench/run_gpu_sweep.sh          Environment: BIODEM (default build/biodem), OUT
 #                                        (default /tmp/biodem-gpu-sweep), SWEEP_CASES, NCU_CASES

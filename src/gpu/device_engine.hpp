@@ -174,7 +174,7 @@ class DeviceEngine {
   /// The order-free family (BIODEM_GPU_SUMS=fixed or this switch; docs/gpu.md section 2): the
   /// per-contact kernels add each contact's force and torque to its spheres' sums as 64-bit
   /// fixed-point integers (src/gpu/fixed_sums.hpp), in any order, so the sums are the same bits
-  /// on any device and number of threads; each contribution is rounded to the grid of
+  /// on any number of threads; each contribution is rounded to the grid of
   /// fixed_force_quantum() (N) and fixed_torque_quantum() (N m), chosen at upload from the case
   /// (0 when off). A contribution beyond the grid's range stops the run at the next list check.
   /// set_fixed_caps (for tests) sets the grid for contributions up to the given magnitudes

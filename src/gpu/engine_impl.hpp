@@ -148,7 +148,7 @@ class Engine final : public DeviceEngine {
     // BIODEM_GPU_SUMS=ordered|fixed: each sphere's contact sums in the row order as doubles (the
     // default; every kernel set above gives the same bits), or as 64-bit fixed-point integers
     // added in any order (the order-free family: PairEntriesFixed, then the body kernels; its own
-    // bits, the same on any device and number of threads; fixed_sums.hpp). The order-free family
+    // bits, the same on any number of threads; fixed_sums.hpp). The order-free family
     // is one set, the per-contact kernels: not timed against the others, whose bits differ.
     if (const char* sums = std::getenv("BIODEM_GPU_SUMS"); sums && *sums) {
       const std::string v(sums);

@@ -4,7 +4,7 @@
 // Each contact's force and torque are rounded to a grid (a power of two, `quantum`) and added to
 // their sphere's sums as 64-bit integers. Integer addition is associative, so the sums do not
 // depend on the order the contacts arrive in: the pass over the contacts may add them with atomic
-// additions from any thread, on any device or number of threads, and the sums are the same bits.
+// additions from any thread, on any number of threads, and the sums are the same bits.
 // The rounding is the only difference from double sums: each contribution is off by at most half
 // a quantum (round to nearest, ties to even), so a sphere's sum is off by at most
 // (contributions / 2) quanta.
