@@ -185,10 +185,14 @@ class DeviceEngine {
   virtual double fixed_torque_quantum() const = 0;
   virtual void set_fixed_caps(double force_cap_n, double torque_cap_n_m) = 0;
   virtual std::uint64_t fixed_sum_passes() const = 0;
-  /// The per-contact passes run over a list of the pairs made at each list build
-  /// (BIODEM_GPU_PAIR_LIST=compact, the default) or over every row entry and wall slot (full):
-  /// the same bits. For tests: the pairs in the list now, -1 when there is none (full).
+  /// The per-contact passes run over lists of the pairs and of the wall slots within reach, made
+  /// at each list build (BIODEM_GPU_PAIR_LIST=compact, the default), or over every row entry and
+  /// wall slot (full): the same bits. For tests: the pairs in the list now, -1 when there is
+  /// none (full).
   virtual std::int64_t listed_pairs() = 0;
+  /// Likewise the wall slots (sphere, wall) in the list now: those whose sphere touched the wall
+  /// or was within its radius plus the skin of it at the last build (walls::within_reach).
+  virtual std::int64_t listed_wall_slots() = 0;
   /// With BIODEM_GPU_PROFILE=1: one line saying where the wall time of the steps went (step
   /// kernels between list checks, list checks, list builds, the rest), for run.log; empty
   /// otherwise. The host then waits for the device after each of them to time it.

@@ -824,6 +824,9 @@ class NamedErrorsEngine final : public DeviceEngine {
   std::int64_t listed_pairs() override {
     return thrust_errors_named("a download of the pair count", [&] { return e_.listed_pairs(); });
   }
+  std::int64_t listed_wall_slots() override {
+    return thrust_errors_named("a download of the wall-slot count", [&] { return e_.listed_wall_slots(); });
+  }
   std::string profile_report() const override { return e_.profile_report(); }
   void set_sort_every(std::uint32_t builds) override { e_.set_sort_every(builds); }
   std::uint64_t body_sorts() const override { return e_.body_sorts(); }

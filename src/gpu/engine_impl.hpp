@@ -282,6 +282,12 @@ class Engine final : public DeviceEngine {
     to_host(c, pair_count_);
     return c.empty() ? 0 : c[0];
   }
+  std::int64_t listed_wall_slots() override {
+    if (!compact_pairs_) return -1;
+    std::vector<std::uint32_t> c;
+    to_host(c, wall_count_);
+    return c.empty() ? 0 : c[0];
+  }
   std::string profile_report() const override;
   std::string contact_kernels() const override {
     auto us = [](double seconds) {
@@ -666,9 +672,42 @@ class Engine final : public DeviceEngine {
   /// (the CUDA graphs hold its address), with an eighth to spare.
   bool compact_pairs_ = true;
   std::uint64_t row_entries_ = 0;          // entries of all rows at the last build (each pair twice)
+  std::uint64_t near_wall_slots_ = 0;      // wall slots within reach at the last build
   vec<std::uint32_t> pair_k_, pair_offset_;
   vec<std::uint32_t> pair_count_ = vec<std::uint32_t>(1, 0u);
   std::uint32_t pair_cap_ = 0;
+  vec<std::uint32_t> wall_k_, wall_offset_;
+  vec<std::uint32_t> wall_count_ = vec<std::uint32_t>(1, 0u);
+  std::uint32_t wall_cap_ = 0;
+  WallSlotNear wall_slot_near() {
+    return WallSlotNear{raw<Vec3>(s_pos_), raw<double>(s_radius_), raw<DeviceWall>(walls_), raw<std::uint8_t>(wall_touching_),
+                        ns(), skin_};
+  }
+  /// The wall-slot list (the slots within reach, WallSlotNear) at a list build, of
+  /// near_wall_slots_ slots; at a wall update (sync_walls) counted anew first.
+  void build_wall_list() {
+    const std::uint32_t n = ns(), total = n_walls_ * n;
+    const std::uint64_t slots = near_wall_slots_;
+    if (slots > wall_cap_ || wall_k_.empty()) {
+      const std::uint64_t cap = slots + slots / 8 + 32;
+      if (cap > 0xffffffffull) throw Error("GPU engine: " + std::to_string(slots) + " wall slots exceed 2^32 (32-bit indices)");
+      wall_cap_ = static_cast<std::uint32_t>(cap);
+      wall_k_.resize(wall_cap_);
+      invalidate_graphs();
+    }
+    if (total == 0) {
+      thrust::fill(queue(), wall_count_.begin(), wall_count_.end(), 0u);
+      return;
+    }
+    wall_offset_.resize(total);
+    const WallSlotNear near = wall_slot_near();
+    thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
+                                     thrust::counting_iterator<std::uint32_t>(total), wall_offset_.begin(), near, 0u,
+                                     thrust::plus<std::uint32_t>());
+    launch(total, ScatterFlagged<WallSlotNear>{near, raw<std::uint32_t>(wall_offset_), total, wall_cap_,
+                                               raw<std::uint32_t>(wall_k_), raw<std::uint32_t>(wall_count_),
+                                               raw<std::uint32_t>(mirror_missing_)});
+  }
   void build_pair_list() {
     const std::uint32_t n = ns(), total = rows_.cap * n;
     const std::uint64_t pairs = row_entries_ / 2;
@@ -688,13 +727,15 @@ class Engine final : public DeviceEngine {
     thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
                                      thrust::counting_iterator<std::uint32_t>(total), pair_offset_.begin(), lower, 0u,
                                      thrust::plus<std::uint32_t>());
-    launch(total, ScatterLowerSides{lower, raw<std::uint32_t>(pair_offset_), total, pair_cap_, raw<std::uint32_t>(pair_k_),
-                                    raw<std::uint32_t>(pair_count_), raw<std::uint32_t>(mirror_missing_)});
+    launch(total, ScatterFlagged<LowerSide>{lower, raw<std::uint32_t>(pair_offset_), total, pair_cap_,
+                                            raw<std::uint32_t>(pair_k_), raw<std::uint32_t>(pair_count_),
+                                            raw<std::uint32_t>(mirror_missing_)});
   }
   std::uint32_t pair_pass_threads() const {
     ContactArgs::PairList l;
     l.on = compact_pairs_;
     l.cap = pair_cap_;
+    l.wall_cap = wall_cap_;
     return ContactArgs::pass_threads(l, rows_.cap, n_walls_, ns());
   }
   /// The order-free family (BIODEM_GPU_SUMS=fixed): the per-sphere sums as fixed-point integers
@@ -777,6 +818,17 @@ inline void Engine::sync_walls() {
   std::vector<DeviceWall> dw(w.size());
   for (std::size_t k = 0; k < w.size(); ++k) dw[k] = {w[k].geometry, w[k].material};
   to_device(walls_, dw);
+  // The wall-slot list after a change of the walls between builds (at a phase start), from the
+  // spheres' positions now: they move less than half the skin before the next build either way.
+  if (compact_pairs_ && ns() && rows_.length.size() == ns() && wall_touching_.size() == n_walls_ * static_cast<std::size_t>(ns()) &&
+      dw.size() == n_walls_) {
+    near_wall_slots_ = thrust::transform_reduce(
+                           exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(ns()),
+                           SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(), n_walls_}, RowLengths{},
+                           RowLengthsMax{})
+                           .wall_slots;
+    build_wall_list();
+  }
 }
 
 inline void Engine::upload() {
@@ -995,8 +1047,9 @@ inline void Engine::check_finite() {
 
 inline void Engine::build_list(const Box* known_box) {
   const std::uint32_t n = ns();
-  if (n == 0) {  // (no rows: the pair list of a scene uploaded before must not be read)
+  if (n == 0) {  // (no rows: the pair and wall lists of a scene uploaded before must not be read)
     thrust::fill(queue(), pair_count_.begin(), pair_count_.end(), 0u);
+    thrust::fill(queue(), wall_count_.begin(), wall_count_.end(), 0u);
     return;
   }
   Box box;
@@ -1106,10 +1159,12 @@ inline void Engine::build_list(const Box* known_box) {
     } else {
       launch(n, BuildRows{args});
     }
-    const RowLengths lengths = thrust::transform_reduce(exec(), rows_.length.begin(), rows_.length.end(), RowLengthOf{},
-                                                        RowLengths{}, RowLengthsMax{});
+    const RowLengths lengths = thrust::transform_reduce(
+        exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(n),
+        SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(), n_walls_}, RowLengths{}, RowLengthsMax{});
     const std::uint32_t longest = lengths.longest;
     row_entries_ = lengths.total;
+    near_wall_slots_ = lengths.wall_slots;
     if (longest <= cap) break;
     cap = longest + longest / 4 + 1;
     ++widenings_;
@@ -1121,7 +1176,10 @@ inline void Engine::build_list(const Box* known_box) {
                 " entries and " + std::to_string(n_walls_) + " walls exceed 2^32 entries (32-bit indices)");
   // Each pair's other entry, for PairEntries (which evaluates a pair once, from its lower-id side).
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
-  if (compact_pairs_) build_pair_list();
+  if (compact_pairs_) {
+    build_pair_list();
+    build_wall_list();
+  }
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
   if (use_entry_kernels() || tuning_under_way()) ensure_entry_buffers();
@@ -1207,6 +1265,9 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
     c.pair_list.count = raw<std::uint32_t>(pair_count_);
     c.pair_list.cap = pair_cap_;
     c.pair_list.on = true;
+    c.pair_list.wall_k = raw<std::uint32_t>(wall_k_);
+    c.pair_list.wall_count = raw<std::uint32_t>(wall_count_);
+    c.pair_list.wall_cap = wall_cap_;
   }
   c.rows.entry_force = raw<Vec3>(entry_force_);
   c.rows.entry_torque = raw<Vec3>(entry_torque_);

@@ -215,17 +215,15 @@ struct MotionMax {
   }
 };
 
-/// The longest row and the entries of all rows, in one reduction (the list build).
+/// The longest row, the entries of all rows and the wall slots within reach, in one reduction
+/// (the list build: the one wait it makes for the host).
 struct RowLengths {
   std::uint32_t longest = 0;
-  std::uint64_t total = 0;
-};
-struct RowLengthOf {
-  BIODEM_HD RowLengths operator()(std::uint32_t len) const { return RowLengths{len, len}; }
+  std::uint64_t total = 0, wall_slots = 0;
 };
 struct RowLengthsMax {
   BIODEM_HD RowLengths operator()(const RowLengths& a, const RowLengths& b) const {
-    return RowLengths{a.longest > b.longest ? a.longest : b.longest, a.total + b.total};
+    return RowLengths{a.longest > b.longest ? a.longest : b.longest, a.total + b.total, a.wall_slots + b.wall_slots};
   }
 };
 
@@ -843,15 +841,20 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
-  /// The pairs' lower-id entries, listed at each list build (LowerSides, ScatterLowerSides): the
-  /// per-contact passes launch one thread per listed entry (`cap` threads, those from `*count`
-  /// on doing nothing) and one per wall slot, instead of one per row entry and wall slot. Off
+  /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
+  /// (LowerSide, WallSlotNear, ScatterFlagged): the per-contact passes launch one thread per
+  /// listed entry (`cap` threads, those from `*count` on doing nothing) and per listed wall slot
+  /// (`wall_cap`, likewise), instead of one per row entry and wall slot. Off
   /// (BIODEM_GPU_PAIR_LIST=full): one per row entry and wall slot.
   struct PairList {
     const std::uint32_t* k = nullptr;
     const std::uint32_t* count = nullptr;
     std::uint32_t cap = 0;
     bool on = false;
+    // and the wall slots that may touch before the next build (WallSlotNear), likewise
+    const std::uint32_t* wall_k = nullptr;
+    const std::uint32_t* wall_count = nullptr;
+    std::uint32_t wall_cap = 0;
   } pair_list;
 
   /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a) for the
@@ -867,7 +870,9 @@ struct ContactArgs {
         pair(k, a, s.sid[a]);
         return;
       }
-      const std::uint32_t slot = t - pair_list.cap;
+      const std::uint32_t u = t - pair_list.cap;
+      if (u >= *pair_list.wall_count) return;
+      const std::uint32_t slot = pair_list.wall_k[u];
       wall(slot % n, slot / n);
       return;
     }
@@ -887,7 +892,7 @@ struct ContactArgs {
   }
   /// The threads of a per-contact pass over rows of `cap` entries and `walls` walls.
   static std::uint32_t pass_threads(const PairList& l, std::uint32_t cap, std::uint32_t walls, std::uint32_t n) {
-    return (l.on ? l.cap : cap * n) + walls * n;
+    return l.on ? l.cap + l.wall_cap : (cap + walls) * n;
   }
 
   /// What a force kernel reads of entry k first: the neighbour, its stable id and whether the
@@ -1121,18 +1126,48 @@ struct LowerSide {
     return q < rows.length[a] && sid[a] < rows.sid[k] ? 1u : 0u;
   }
 };
-/// The pair list from the exclusive scan of LowerSide over the `total` entries (one thread per
-/// entry): each lower-id entry k at its place, so the list holds them in index order; the last
-/// thread writes the count. A list that does not fit `cap` (the host's bound: half the entries
-/// of rows that hold each pair twice) sets `missing` (read at downloads) and keeps `cap`.
-struct ScatterLowerSides {
-  LowerSide lower;
+/// Whether wall slot `slot` = w * n + a is one a per-contact pass evaluates (the wall-slot
+/// list, ContactArgs::PairList): sphere a touched wall w at the last evaluation, or is within
+/// reach of it (walls::within_reach, radius plus skin, as the CPU engine's wall candidates).
+struct WallSlotNear {
+  const Vec3* position;
+  const double* radius;
+  const DeviceWall* walls;
+  const std::uint8_t* wall_touching;
+  std::uint32_t n;
+  double skin;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t slot) const {
+    const std::uint32_t a = slot % n, w = slot / n;
+    return wall_touching[slot] != 0 || walls::within_reach(walls[w].geometry, position[a], radius[a] + skin) ? 1u : 0u;
+  }
+};
+/// RowLengths of sphere a (one term of the list build's reduction).
+struct SphereListStats {
+  const std::uint32_t* length;
+  WallSlotNear near;
+  std::uint32_t n_walls;
+  BIODEM_HD RowLengths operator()(std::uint32_t a) const {
+    RowLengths r{length[a], length[a], 0};
+    for (std::uint32_t w = 0; w < n_walls; ++w) r.wall_slots += near(w * near.n + a);
+    return r;
+  }
+};
+
+/// A list from the exclusive scan of a flag (LowerSide: the pair list; WallSlotNear: the
+/// wall-slot list) over `total` indices (one thread per index): each flagged index at its place,
+/// so the list holds them in index order; the last thread writes the count. A list that does not
+/// fit `cap` (the host's bound: for pairs half the entries of rows that hold each pair twice, for
+/// wall slots the count of the build's reduction) sets `missing` (read at downloads: an internal
+/// error) and keeps `cap`.
+template <class Flag>
+struct ScatterFlagged {
+  Flag flag;
   const std::uint32_t* offset;
   std::uint32_t total, cap;
-  std::uint32_t *pair_k, *count, *missing;
+  std::uint32_t *list, *count, *missing;
   BIODEM_HD void operator()(std::uint32_t k) const {
-    const std::uint32_t f = lower(k), o = offset[k];
-    if (f && o < cap) pair_k[o] = k;
+    const std::uint32_t f = flag(k), o = offset[k];
+    if (f && o < cap) list[o] = k;
     if (k + 1 == total) {
       const std::uint32_t c = o + f;
       *count = c < cap ? c : cap;

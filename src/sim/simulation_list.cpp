@@ -175,21 +175,11 @@ void Simulation::update_wall_candidates() {
   const WallContacts& old = wall_contacts_;
   const bool have_old = old.start.size() == n + 1;
   // Walls enlarged by the reach (radius + skin), so that a sphere sliding over a disc rim or a
-  // cylinder end before the next build is still a candidate.
+  // cylinder end before the next build is still a candidate (walls::within_reach, which the GPU
+  // engine's wall-slot list uses too).
   auto candidate = [&](std::size_t i, std::size_t w) {
     if (walls_[w].translates()) return true;  // a moving wall may come to any sphere
-    const double reach = spheres_.radius_m[i] + skin_m_;
-    walls::WallGeometry g = walls_[w].geometry;
-    if (g.kind == walls::Kind::Disc) g.radius_m += reach;
-    if (g.kind == walls::Kind::Rectangle) {
-      g.half_u_m += reach;
-      g.half_v_m += reach;
-    }
-    if (g.kind == walls::Kind::Cylinder && g.length_m > 0.0) {
-      g.point_m -= reach * g.normal;
-      g.length_m += 2.0 * reach;
-    }
-    return walls::wall_hit(g, at[i], reach).touching;
+    return walls::within_reach(walls_[w].geometry, at[i], spheres_.radius_m[i] + skin_m_);
   };
   auto old_slot = [&](std::size_t i, std::size_t w) -> std::int64_t {
     if (!have_old) return -1;

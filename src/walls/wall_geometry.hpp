@@ -108,4 +108,23 @@ BIODEM_HD inline Vec3 wall_velocity(const WallGeometry& w, const Vec3& p) {
   return w.velocity_m_s + cross(w.angular_velocity_rad_s * w.normal, p - w.point_m);
 }
 
+/// Whether a sphere at c may touch the (fixed or turning) wall w before the next neighbour-list
+/// build, `reach` being its radius plus the skin: the wall enlarged by the reach (a disc's radius,
+/// a rectangle's half sides, a finite cylinder's ends), so that a sphere sliding over a disc rim
+/// or a tube end is still one, within reach of it. Its centre moves less than half the skin
+/// between builds, so a sphere out of reach at a build cannot touch the wall before the next.
+/// (A translating wall may come to any sphere: the callers take it as within reach of all.)
+BIODEM_HD inline bool within_reach(WallGeometry g, const Vec3& c, double reach) {
+  if (g.kind == Kind::Disc) g.radius_m += reach;
+  if (g.kind == Kind::Rectangle) {
+    g.half_u_m += reach;
+    g.half_v_m += reach;
+  }
+  if (g.kind == Kind::Cylinder && g.length_m > 0.0) {
+    g.point_m -= reach * g.normal;
+    g.length_m += 2.0 * reach;
+  }
+  return wall_hit(g, c, reach).touching;
+}
+
 }  // namespace biodem::walls

@@ -1492,16 +1492,20 @@ TEST(GpuEngine, FixedSumsOutOfRangeStopTheRun) {
   EXPECT_NE(what.find("beyond its range of"), std::string::npos) << what;
 }
 
-// The per-contact passes over the list of the pairs' lower-id entries made at each list build
-// (BIODEM_GPU_PAIR_LIST=compact, the default), against the passes over every row entry and
-// wall slot (full): the packing stepped in runs across list checks, rebuilds (with sorts of the
-// bodies), a criterion phase and an upload is bit-identical after every run, with the entry
-// kernels and with the fixed-point sums, and the list holds every pair of the rows once.
-// (It fails when the list drops its last entry: checked.)
+// The per-contact passes over the lists made at each list build of the pairs' lower-id entries
+// and of the wall slots within reach (BIODEM_GPU_PAIR_LIST=compact, the default), against the
+// passes over every row entry and wall slot (full): the packing (a turning cylinder) and the
+// compressed bed (its spheres against the cylinder from the start) stepped in runs across list
+// checks, rebuilds (with sorts of the bodies), a criterion phase and an upload are bit-identical
+// after every run, with the entry kernels and with the fixed-point sums; the list holds every
+// pair of the rows once and a part of the wall slots. (It fails when the pair list drops its
+// last entry, or when the wall slots' reach leaves out the skin: checked.)
 TEST(GpuEngine, PairListGivesTheBitsOfThePassOverEveryEntry) {
-  for (const bool fixed : {false, true}) {
-    SCOPED_TRACE(fixed ? "fixed-point sums" : "entry kernels");
-    auto a = packing(0.5e-3), b = packing(0.5e-3);
+  for (const int scene : {0, 1, 2, 3}) {
+    const bool fixed = scene % 2 == 1;
+    SCOPED_TRACE(std::string(fixed ? "fixed-point sums" : "entry kernels") + (scene >= 2 ? ", compressed bed" : ""));
+    auto make = [scene] { return scene >= 2 ? compressed_bed() : packing(0.5e-3); };
+    auto a = make(), b = make();
     auto ea = gpu_engine(*a);
     ::setenv("BIODEM_GPU_PAIR_LIST", "full", 1);
     auto eb = gpu_engine(*b);
@@ -1515,15 +1519,19 @@ TEST(GpuEngine, PairListGivesTheBitsOfThePassOverEveryEntry) {
     const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
     std::size_t unmirrored = 1;
     const auto pairs = ea->list_pairs(&unmirrored);
-    std::printf("[measured] pair list vs every entry (%s): %llu steps, %llu list builds, %lld pairs listed, %zu in "
-                "the rows; bit-identical after every run\n",
-                fixed ? "fixed-point sums" : "entry kernels", static_cast<unsigned long long>(steps),
-                static_cast<unsigned long long>(ea->list_builds()), static_cast<long long>(ea->listed_pairs()),
-                pairs.size());
+    std::printf("[measured] pair list vs every entry (%s%s): %llu steps, %llu list builds, %lld pairs listed, %zu in "
+                "the rows, %lld of %zu wall slots listed, %zu contacts at the end; bit-identical after every run\n",
+                fixed ? "fixed-point sums" : "entry kernels", scene >= 2 ? ", compressed bed" : "",
+                static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
+                static_cast<long long>(ea->listed_pairs()), pairs.size(), static_cast<long long>(ea->listed_wall_slots()),
+                a->spheres().size() * a->walls().size(), a->contact_count());
     EXPECT_EQ(unmirrored, 0u);
     EXPECT_EQ(ea->listed_pairs(), static_cast<std::int64_t>(pairs.size()));
     EXPECT_GT(pairs.size(), 100u);
+    EXPECT_GT(ea->listed_wall_slots(), 10);
+    EXPECT_LT(ea->listed_wall_slots(), static_cast<std::int64_t>(a->spheres().size() * a->walls().size() / 2));
     EXPECT_EQ(eb->listed_pairs(), -1);
+    EXPECT_EQ(eb->listed_wall_slots(), -1);
     EXPECT_GT(ea->list_builds(), 5u);
     EXPECT_GT(ea->entry_force_passes(), steps / 2);
   }
