@@ -37,8 +37,9 @@
 #      whether the GPU's run is byte-identical to the same run on CPU threads;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
-#      row, the single-sphere body kernel with its sums by the row lanes and the row walk with
-#      the body update (BIODEM_GPU_WALK_KICK=1) byte-identical, CPU engine agreement;
+#      row, the single-sphere body kernel with its sums by the row lanes, the row walk with
+#      the body update (BIODEM_GPU_WALK_KICK=1) and the entry kernels over every row entry
+#      (BIODEM_GPU_PAIR_LIST=full) byte-identical, CPU engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
 # It exits non-zero if any check fails.
@@ -441,6 +442,9 @@ BIODEM_GPU_BUILD_LANES=1 run_biodem wide_build1 "$wide" "$OUT/wide_build1" --dev
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem wide_sum_lanes "$wide" "$OUT/wide_sum_lanes" --device "$DEVICE"; we=$?
 # (and the row walk with the body update in one kernel, the sphere motion in two buffers)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem wide_walk_kick "$wide" "$OUT/wide_walk_kick" --device "$DEVICE"; wk=$?
+# (the entry kernels over every row entry and wall slot, against the pair and wall-slot lists,
+# across the widenings)
+BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem wide_full_pass "$wide" "$OUT/wide_full_pass" --device "$DEVICE"; wf=$?
 if [ $wa -ne 0 ] || [ $wb -ne 0 ] || [ $wc -ne 0 ]; then
   record "6. wider-row rebuild" FAIL "a run failed (logs/wide_*.txt)"
 else
@@ -460,6 +464,9 @@ else
   elif ! grep -q 'ForcesKickDrift' "$OUT/wide_walk_kick/run.log"; then ok=0; detail="$detail; BIODEM_GPU_WALK_KICK=1 did not run ForcesKickDrift"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick"); then detail="$detail; row walk with the body update (BIODEM_GPU_WALK_KICK=1) byte-identical"
   else ok=0; detail="$detail; row walk with the body update differs: $(echo $diff)"; fi
+  if [ $wf -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PAIR_LIST=full failed"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_full_pass"); then detail="$detail; entry kernels over every entry (BIODEM_GPU_PAIR_LIST=full) byte-identical"
+  else ok=0; detail="$detail; entry kernels over every entry differ: $(echo $diff)"; fi
   if cmp_detail=$(compare_engines wide "$OUT/wide_cpu" "$OUT/wide_a" 0.5 0.05); then detail="$detail; vs CPU: $cmp_detail"; else ok=0; detail="$detail; vs CPU: $cmp_detail"; fi
   [ $ok = 1 ] && record "6. wider-row rebuild" PASS "$detail" || record "6. wider-row rebuild" FAIL "$detail"
 fi
