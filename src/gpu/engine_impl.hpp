@@ -443,6 +443,8 @@ class Engine final : public DeviceEngine {
   /// (where it is never set: end_settle clears it), so that the step kernels do not load it
   /// before their own first loads.
   const std::uint32_t* halt() { return settle_active_ ? &raw<SettleState>(settle_)->settled : nullptr; }
+  /// The host's walls to the device (upload, sync_walls).
+  void copy_walls();
   /// Forgets the CUDA graphs (their kernels' arguments changed: buffers, walls, criterion).
   void invalidate_graphs() { graphs_.clear(); }
   void check_finite();
@@ -679,12 +681,16 @@ class Engine final : public DeviceEngine {
   vec<std::uint32_t> wall_k_, wall_offset_;
   vec<std::uint32_t> wall_count_ = vec<std::uint32_t>(1, 0u);
   std::uint32_t wall_cap_ = 0;
-  WallSlotNear wall_slot_near() {
-    return WallSlotNear{raw<Vec3>(s_pos_), raw<double>(s_radius_), raw<DeviceWall>(walls_), raw<std::uint8_t>(wall_touching_),
+  /// WallSlotNear with the spheres at `positions`: at a build their positions now (which the
+  /// build then keeps as s_built_at_), at a wall update between builds s_built_at_ (so that the
+  /// spheres' moves until the next build, less than half the skin from there, stay within it).
+  WallSlotNear wall_slot_near(const Vec3* positions) {
+    return WallSlotNear{positions, raw<double>(s_radius_), raw<DeviceWall>(walls_), raw<std::uint8_t>(wall_touching_),
                         ns(), skin_};
   }
-  /// The wall-slot list (the slots within reach, WallSlotNear) at a list build, of
-  /// near_wall_slots_ slots; at a wall update (sync_walls) counted anew first.
+  const Vec3* wall_list_positions_ = nullptr;  // (build_wall_list's: set by its callers)
+  /// The wall-slot list (the slots within reach, WallSlotNear) of near_wall_slots_ slots, at
+  /// wall_list_positions_.
   void build_wall_list() {
     const std::uint32_t n = ns(), total = n_walls_ * n;
     const std::uint64_t slots = near_wall_slots_;
@@ -700,7 +706,7 @@ class Engine final : public DeviceEngine {
       return;
     }
     wall_offset_.resize(total);
-    const WallSlotNear near = wall_slot_near();
+    const WallSlotNear near = wall_slot_near(wall_list_positions_);
     thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
                                      thrust::counting_iterator<std::uint32_t>(total), wall_offset_.begin(), near, 0u,
                                      thrust::plus<std::uint32_t>());
@@ -772,7 +778,8 @@ class Engine final : public DeviceEngine {
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   vec<std::uint32_t> mirror_missing_ = vec<std::uint32_t>(1, 0u);  // set by MirrorEntries if a pair's other entry is missing (read at downloads)
   [[noreturn]] static void throw_unmirrored() {
-    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only");
+    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only (or its pair or "
+                "wall-slot list outgrew its capacity)");
   }
   /// Both entries of every touching pair hold its history again (MirrorHistory), after steps of
   /// PairEntries, which advance it in the lower-id side's entry only.
@@ -812,21 +819,27 @@ class Engine final : public DeviceEngine {
   }
 };
 
-inline void Engine::sync_walls() {
+inline void Engine::copy_walls() {
   invalidate_graphs();
   const auto& w = host_.walls();
   std::vector<DeviceWall> dw(w.size());
   for (std::size_t k = 0; k < w.size(); ++k) dw[k] = {w[k].geometry, w[k].material};
   to_device(walls_, dw);
-  // The wall-slot list after a change of the walls between builds (at a phase start), from the
-  // spheres' positions now: they move less than half the skin before the next build either way.
-  if (compact_pairs_ && ns() && rows_.length.size() == ns() && wall_touching_.size() == n_walls_ * static_cast<std::size_t>(ns()) &&
-      dw.size() == n_walls_) {
+}
+
+inline void Engine::sync_walls() {
+  copy_walls();
+  // The wall-slot list after a change of the walls between builds (a phase start), from the
+  // spheres' positions at the last build: they move less than half the skin from there before
+  // the next build.
+  if (compact_pairs_ && ns() && rows_.length.size() == ns() && s_built_at_.size() == ns() &&
+      wall_touching_.size() == n_walls_ * static_cast<std::size_t>(ns()) && walls_.size() == n_walls_) {
     near_wall_slots_ = thrust::transform_reduce(
                            exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(ns()),
-                           SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(), n_walls_}, RowLengths{},
-                           RowLengthsMax{})
+                           SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(raw<Vec3>(s_built_at_)), n_walls_},
+                           RowLengths{}, RowLengthsMax{})
                            .wall_slots;
+    wall_list_positions_ = raw<Vec3>(s_built_at_);
     build_wall_list();
   }
 }
@@ -860,7 +873,7 @@ inline void Engine::upload() {
     for (std::uint32_t c = 0; c < n_materials_; ++c) table[a * n_materials_ + c] = pt(a, c);
   to_device(pairs_, table);
   if (fixed_sums_ && !fixed_caps_set_) fixed_grid();
-  sync_walls();
+  copy_walls();  // (the wall-slot list follows with the list build below)
   n_walls_ = static_cast<std::uint32_t>(host_.walls().size());
 
   to_device(b_pos_, b.position_m);
@@ -1161,7 +1174,8 @@ inline void Engine::build_list(const Box* known_box) {
     }
     const RowLengths lengths = thrust::transform_reduce(
         exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(n),
-        SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(), n_walls_}, RowLengths{}, RowLengthsMax{});
+        SphereListStats{raw<std::uint32_t>(rows_.length), wall_slot_near(raw<Vec3>(s_pos_)), n_walls_}, RowLengths{},
+        RowLengthsMax{});
     const std::uint32_t longest = lengths.longest;
     row_entries_ = lengths.total;
     near_wall_slots_ = lengths.wall_slots;
@@ -1178,8 +1192,12 @@ inline void Engine::build_list(const Box* known_box) {
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   if (compact_pairs_) {
     build_pair_list();
+    wall_list_positions_ = raw<Vec3>(s_pos_);
     build_wall_list();
   }
+  if (static_cast<std::uint64_t>(pair_cap_) + wall_cap_ > 0xffffffffull)
+    throw Error("GPU engine: " + std::to_string(pair_cap_) + " pairs and " + std::to_string(wall_cap_) +
+                " wall slots exceed 2^32 threads (32-bit indices)");
   thrust::copy(queue(), s_pos_.begin(), s_pos_.end(), s_built_at_.begin());
   // The entry kernels' buffers: enlarged only (the CUDA graphs hold their addresses).
   if (use_entry_kernels() || tuning_under_way()) ensure_entry_buffers();

@@ -1128,7 +1128,9 @@ struct LowerSide {
 };
 /// Whether wall slot `slot` = w * n + a is one a per-contact pass evaluates (the wall-slot
 /// list, ContactArgs::PairList): sphere a touched wall w at the last evaluation, or is within
-/// reach of it (walls::within_reach, radius plus skin, as the CPU engine's wall candidates).
+/// reach of it (walls::within_reach, radius plus skin, as the CPU engine's wall candidates), or
+/// the wall moves (translation is refused by the GPU engine; a wall with a velocity would be
+/// every sphere's, as in the CPU engine).
 struct WallSlotNear {
   const Vec3* position;
   const double* radius;
@@ -1138,7 +1140,10 @@ struct WallSlotNear {
   double skin;
   BIODEM_HD std::uint32_t operator()(std::uint32_t slot) const {
     const std::uint32_t a = slot % n, w = slot / n;
-    return wall_touching[slot] != 0 || walls::within_reach(walls[w].geometry, position[a], radius[a] + skin) ? 1u : 0u;
+    const walls::WallGeometry& g = walls[w].geometry;
+    return wall_touching[slot] != 0 || norm2(g.velocity_m_s) > 0.0 || walls::within_reach(g, position[a], radius[a] + skin)
+               ? 1u
+               : 0u;
   }
 };
 /// RowLengths of sphere a (one term of the list build's reduction).

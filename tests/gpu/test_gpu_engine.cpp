@@ -504,6 +504,10 @@ TEST(GpuEngine, LabWallRollingMatchesCpu) {
 // 5e-6 s (10 % of the Rayleigh time). The two
 // emulated runs must be bit-identical (each kernel index computes independently; the sums are
 // in a fixed order), and both must follow the CPU engine to 1e-9 m.
+namespace {
+std::string first_difference(const sim::Simulation& a, const sim::Simulation& b);  // (below)
+}  // namespace
+
 TEST(GpuEngine, WallsOfEveryKindSeriallyAndInParallel) {
   auto scene = []() {
     SimSetup su = bead_setup(0.2, 0.4, 0.2, 2e4);
@@ -538,14 +542,22 @@ TEST(GpuEngine, WallsOfEveryKindSeriallyAndInParallel) {
     }
     return s;
   };
-  auto run_gpu = [&](bool parallel) {
+  // (the GPU runs also update their walls every 250 steps, between list builds, as a phase start
+  // does: the wall-slot list is then made again from the positions of the last build)
+  auto run_gpu = [&](bool parallel, bool full_pass = false) {
     const ScopedThreads scoped(parallel ? 2 : 1);
     const std::size_t old = kParallelThreshold;
     if (parallel) set_parallel_threshold(0);
     auto s = scene();
+    if (full_pass) ::setenv("BIODEM_GPU_PAIR_LIST", "full", 1);
     auto eng = gpu_engine(*s);
+    ::unsetenv("BIODEM_GPU_PAIR_LIST");
+    eng->set_entry_forces(true);
     eng->upload();
-    for (int k = 0; k < 2000; ++k) eng->step();
+    for (int k = 0; k < 2000; ++k) {
+      eng->step();
+      if (k % 250 == 249) eng->sync_walls();
+    }
     eng->download(true);
     set_parallel_threshold(old);
     return s;
@@ -559,8 +571,11 @@ TEST(GpuEngine, WallsOfEveryKindSeriallyAndInParallel) {
       most_contacts = std::max(most_contacts, cpu->contact_count());
     }
   }
-  const auto serial = run_gpu(false), parallel = run_gpu(true);
+  const auto serial = run_gpu(false), parallel = run_gpu(true), full = run_gpu(false, true);
   ASSERT_EQ(serial->bodies().size(), parallel->bodies().size());
+  // the wall-slot list (the slots within reach of a disc's rim, a tube's ends, a rectangle's
+  // edges) against every slot: the same bits
+  EXPECT_EQ(first_difference(*serial, *full), "") << "the pass over every wall slot";
   const auto& a = serial->bodies().position_m;
   const auto& b = parallel->bodies().position_m;
   const double gap = worst_position_gap(*cpu, *serial);
@@ -570,8 +585,8 @@ TEST(GpuEngine, WallsOfEveryKindSeriallyAndInParallel) {
     if (x.x > 3.6e-3 && x.y > 0.8e-3) ++on_rect;
   }
   std::printf("[measured] walls of every kind: %zu beads (%zu low in the tube, %zu above the disc's level by the "
-              "rectangle), %zu contacts at the end, %zu at most (CPU); serial vs parallel emulation %s; worst |dx| vs the CPU "
-              "engine %.3g m\n",
+              "rectangle), %zu contacts at the end, %zu at most (CPU); serial vs parallel emulation %s, the wall-slot "
+              "list vs every slot compared above; worst |dx| vs the CPU engine %.3g m\n",
               cpu->bodies().size(), in_tube, on_rect, cpu->contact_count(), most_contacts,
               std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0 ? "bit-identical" : "DIFFERENT", gap);
   EXPECT_GT(cpu->bodies().size(), 60u);
