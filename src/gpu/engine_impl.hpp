@@ -1367,7 +1367,7 @@ inline void Engine::fused_unit(bool from_second) {
       if (rolling_) launch_pair_entries_fixed<false, true>(c, fx);
       else launch_pair_entries_fixed<false, false>(c, fx);
     }
-    launch(nb(), ReduceKickDriftFixed{rkd, fx});
+    launch(nb(), ReduceKickDriftFixed{rkd, fx, single_spheres_});
     return;
   }
   if (walk_kick()) {  // glass beads, row walk: the body update inside the walk, two buffers

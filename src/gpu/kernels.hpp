@@ -1740,8 +1740,35 @@ struct TakeFixedSums {
 struct ReduceKickDriftFixed {
   ReduceKickDrift rkd;
   FixedSumArrays fx;
+  /// Every body is one sphere, body k's sphere being sphere k (as SumEntriesKickDrift; the
+  /// engine sets it only then): the sphere's sums and centre are loaded with the body's state, in
+  /// one round, instead of after the body's first sphere is known. The same operations.
+  bool single_spheres = false;
+  /// Sphere i's sums r (loaded) taken: zeroed, stored as its force, torque and contact count, and
+  /// added to the body's force f and torque t (body_sums' operations), p its centre.
+  BIODEM_HD void add_sphere(std::uint32_t i, const FixedSumArrays::Raw& r, const Vec3& p, const BodyState& st, Vec3& f,
+                            Vec3& t) const {
+    Vec3 fs, ts;
+    std::uint32_t count = 0;
+    fx.clear(i);
+    fx.convert(r, fs, ts, count);
+    rkd.s.force[i] = fs;
+    rkd.s.torque[i] = ts;
+    rkd.s.contacts[i] = count;
+    f += fs;
+    t += ts + cross(p - st.x, fs);
+  }
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(rkd.halt)) return;
+    if (single_spheres) {
+      const FixedSumArrays::Raw r = fx.load(k);
+      const Vec3 p = rkd.s.position[k];
+      const BodyState st = load_body(rkd.b, k);
+      Vec3 f = st.m * rkd.gravity, t{};
+      add_sphere(k, r, p, st, f, t);
+      rkd.finish(k, st, f, t);
+      return;
+    }
     const BodyState st = load_body(rkd.b, k);
     Vec3 f = st.m * rkd.gravity, t{};
     // Two spheres at a time: every load of a chunk (sums, centres) before its first store, so
@@ -1756,18 +1783,7 @@ struct ReduceKickDriftFixed {
           r[c] = fx.load(st.s0 + c0 + c);
           p[c] = rkd.s.position[st.s0 + c0 + c];
         }
-      for (std::uint32_t c = 0; c < kChunk && c0 + c < st.ns; ++c) {
-        const std::uint32_t i = st.s0 + c0 + c;
-        Vec3 fs, ts;
-        std::uint32_t count = 0;
-        fx.clear(i);
-        fx.convert(r[c], fs, ts, count);
-        rkd.s.force[i] = fs;
-        rkd.s.torque[i] = ts;
-        rkd.s.contacts[i] = count;
-        f += fs;
-        t += ts + cross(p[c] - st.x, fs);
-      }
+      for (std::uint32_t c = 0; c < kChunk && c0 + c < st.ns; ++c) add_sphere(st.s0 + c0 + c, r[c], p[c], st, f, t);
     }
     rkd.finish(k, st, f, t);
   }
