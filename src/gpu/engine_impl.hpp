@@ -147,23 +147,19 @@ class Engine final : public DeviceEngine {
     }
     // BIODEM_GPU_SUMS=ordered|fixed: each sphere's contact sums in the row order as doubles (the
     // default; every kernel set above gives the same bits), or as 64-bit fixed-point integers
-    // added in any order (the order-free family: PairEntriesFixed, then the body kernels; its own
-    // bits, the same on any number of threads; fixed_sums.hpp). The order-free family
-    // is one set, the per-contact kernels: not timed against the others, whose bits differ.
+    // added in any order (the order-free family; its own bits, the same on any number of threads;
+    // fixed_sums.hpp): its two sets, the per-contact kernels (PairEntriesFixed, then the body
+    // kernels) and the row walk by one thread per sphere (ForcesFixed), give the same bits, so
+    // BIODEM_GPU_FORCES chooses between them as between the ordered sets. It has no set with the
+    // sums by the row lanes or with the body update in the walk.
     if (const char* sums = std::getenv("BIODEM_GPU_SUMS"); sums && *sums) {
       const std::string v(sums);
       if (v != "ordered" && v != "fixed") throw Error("BIODEM_GPU_SUMS = '" + v + "': expected ordered or fixed");
       fixed_sums_ = v == "fixed";
       if (fixed_sums_) {
-        const char* forces = std::getenv("BIODEM_GPU_FORCES");
-        if (forces && *forces && std::string(forces) != "entries" && std::string(forces) != "auto")
-          throw Error("BIODEM_GPU_SUMS = 'fixed' runs the per-contact kernels: BIODEM_GPU_FORCES = '" +
-                      std::string(forces) + "' cannot go with it (entries or auto)");
         for (const char* other : {"BIODEM_GPU_SUM_LANES", "BIODEM_GPU_WALK_KICK"})
           if (const char* o = std::getenv(other); o && *o && std::string(o) == "1")
-            throw Error("BIODEM_GPU_SUMS = 'fixed' runs the per-contact kernels: " + std::string(other) +
-                        " = '1' cannot go with it");
-        forces_mode_ = ForcesMode::entries;
+            throw Error("BIODEM_GPU_SUMS = 'fixed' has no kernel set for " + std::string(other) + " = '1'");
         sum_lanes_mode_ = SumLanes::off;
         walk_kick_mode_ = WalkKick::off;
       }
@@ -255,7 +251,6 @@ class Engine final : public DeviceEngine {
   void set_fixed_sums(bool on) override {
     invalidate_graphs();
     if (on && !fixed_sums_) {
-      set_entry_forces(true);
       sum_lanes_mode_ = SumLanes::off;
       walk_kick_mode_ = WalkKick::off;
     }
@@ -295,13 +290,15 @@ class Engine final : public DeviceEngine {
       std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
       return std::string(b);
     };
-    if (fixed_sums_ && entries_ready()) {
+    std::string fixed_note;
+    if (fixed_sums_) {
       char q[96];
       std::snprintf(q, sizeof q, "quanta %.3g N and %.3g N m", 1.0 / fixed_force_scale_, 1.0 / fixed_torque_scale_);
-      return std::string("per-contact with fixed-point sums in any order (PairEntriesFixed; ") + q +
-             "), set by BIODEM_GPU_SUMS=fixed or a test";
+      fixed_note = std::string(" with fixed-point sums in any order (BIODEM_GPU_SUMS=fixed or a test; ") + q + ")";
     }
-    const std::string set = use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
+    const std::string set = fixed_sums_ ? (use_entry_kernels() ? "per-contact (PairEntriesFixed)" + fixed_note
+                                                               : "per-sphere row walk in one thread (ForcesFixed)" + fixed_note)
+                          : use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
                                                 : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
                                                               : "per-sphere row walk (Forces)";
@@ -317,7 +314,7 @@ class Engine final : public DeviceEngine {
       return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
              " choice(s) in the run so far)";
     const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
-    return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
+    return set + (use_entry_kernels() || fixed_sums_ ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
@@ -1327,6 +1324,13 @@ void Engine::launch_forces(const ContactArgs& c) {
     launch(ns(), TakeFixedSums{pe.fx, c.s, c.halt});
     return;
   }
+  if (fixed_sums_) {  // the order-free family's row walk: one thread per sphere, its sums as integers
+    ForcesFixed<Cohesion, Rolling> w;
+    static_cast<ContactArgs&>(w) = c;
+    w.fx = fixed_arrays();
+    launch(ns(), w);
+    return;
+  }
   if (entries_ready()) {
     launch(pair_pass_threads(), PairEntries<Cohesion, Rolling>{c});
     if (sum_lanes()) {
@@ -1475,7 +1479,7 @@ inline void Engine::run_units(std::uint32_t units) {
   if (two_buffers) walk_kick_units_ += units;
   if (fused && single_spheres_ && entries && !fixed_sums_) summed_in_kick_ += units;
   if (entries) entry_passes_ += units;
-  if (entries && fixed_sums_) fixed_passes_ += units;
+  if (fixed_sums_) fixed_passes_ += units;
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
@@ -1614,7 +1618,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
     const std::uint64_t units = std::min<std::uint64_t>(steps_until_check_, max_steps - cur);
     if (units == 0) {
       if (entries_ready()) ++entry_passes_;
-      if (entries_ready() && fixed_sums_) ++fixed_passes_;
+      if (fixed_sums_) ++fixed_passes_;
       second_half();
       break;
     }

@@ -1208,6 +1208,18 @@ BIODEM_HD inline void walk_add(const RowContact& r, Vec3& f, Vec3& t, std::uint3
   }
 }
 
+/// The sums of a walk by one thread as the walk adds them (walk_add): the ordered family.
+struct OrderedWalkSums {
+  Vec3 f{}, t{};
+  std::uint32_t count = 0;
+  BIODEM_HD void add(const RowContact& r) { walk_add(r, f, t, count); }
+  BIODEM_HD void finish(Vec3& fo, Vec3& to, std::uint32_t& co) const {
+    fo = f;
+    to = t;
+    co = count;
+  }
+};
+
 /// A row walk, item by item (W: Forces): W::walk_begin (false: nothing to do),
 /// then each contact of the walk evaluated (W::walk_entry) and added in walk order, then
 /// W::walk_end with the sums. The contacts of one walk write disjoint memory (their own entry's
@@ -1333,14 +1345,14 @@ struct Forces : ContactArgs {
   /// head loaded one entry ahead (the first with the sphere's stable id and row length), so that
   /// the thread waits for one round of loads per entry instead of two. The same bits as walk_row.
   BIODEM_HD void operator()(std::uint32_t a) const { walk_prefetched(*this, a); }
-  /// That walk for W, Forces or a kernel derived from it: W::walk_end ends it.
-  template <class W>
-  BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a) {
+  /// That walk for W, Forces or a kernel derived from it: W::walk_end ends it. Sums: how the
+  /// contacts are added (OrderedWalkSums: in walk order as doubles, walk_add; FixedWalkSums: as
+  /// fixed-point integers, the order-free family).
+  template <class W, class Sums = OrderedWalkSums>
+  BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a, Sums sums = Sums{}) {
     if (halted(w.halt)) return;
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
-    Vec3 f, t;
-    std::uint32_t count = 0;
     for (std::uint32_t v = 0; v < len; ++v) {
       const EntryHead e = next;
       if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
@@ -1348,10 +1360,13 @@ struct Forces : ContactArgs {
       bool a_low = false;
       if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
         r.kind = a_low ? 1 : 2;
-      walk_add(r, f, t, count);
+      sums.add(r);
     }
     const WalkStart st{a, sid_a, len, len + w.n_walls};
-    for (std::uint32_t v = len; v < st.total; ++v) walk_add(w.walk_entry(st, v), f, t, count);
+    for (std::uint32_t v = len; v < st.total; ++v) sums.add(w.walk_entry(st, v));
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    sums.finish(f, t, count);
     w.walk_end(a, st, f, t, count);
   }
 };
@@ -1686,6 +1701,55 @@ struct FixedSumArrays {
     const Raw r = load(i);
     clear(i);
     convert(r, f, t, contacts);
+  }
+};
+
+/// The sums of a walk by one thread in the order-free family: each contact's force and torque
+/// rounded to the grid (as FixedSumArrays::add_pair and add round them: the force on the pair's
+/// lower-id sphere once, negated for the other side, each side's torque) and added as integers,
+/// converted at the end as FixedSumArrays::convert does. Integer sums in any order are the same,
+/// so the walk's sums are the bits of PairEntriesFixed's atomic additions.
+struct FixedWalkSums {
+  FixedSumArrays fx;  // (its grid; its sums are not touched)
+  long long q[8] = {};
+  BIODEM_HD explicit FixedWalkSums(const FixedSumArrays& grid) : fx(grid) {}
+  BIODEM_HD void add(const RowContact& r) {
+    if (r.kind == 0) return;
+    bool ok = true;
+    const long long f[3] = {fixed::to_fixed(r.force.x, fx.force_scale, fx.limit, ok),
+                            fixed::to_fixed(r.force.y, fx.force_scale, fx.limit, ok),
+                            fixed::to_fixed(r.force.z, fx.force_scale, fx.limit, ok)};
+    const long long t[3] = {fixed::to_fixed(r.torque.x, fx.torque_scale, fx.limit, ok),
+                            fixed::to_fixed(r.torque.y, fx.torque_scale, fx.limit, ok),
+                            fixed::to_fixed(r.torque.z, fx.torque_scale, fx.limit, ok)};
+    if (!ok) {
+      q[7] += 1;
+      return;
+    }
+    const bool negate = r.kind == 2;  // the pair's higher-id side: the lower side's force, negated
+    for (std::uint32_t c = 0; c < 3; ++c) {
+      q[c] += negate ? -f[c] : f[c];
+      q[3 + c] += t[c];
+    }
+    if (r.kind != 2) q[6] += 1;
+  }
+  BIODEM_HD void finish(Vec3& f, Vec3& t, std::uint32_t& count) const {
+    FixedSumArrays::Raw raw;
+    for (std::uint32_t c = 0; c < FixedSumArrays::kWords; ++c) raw.q[c] = q[c];
+    fx.convert(raw, f, t, count);
+  }
+};
+
+/// The row walk by one thread per sphere (Forces' walk, heads loaded one entry ahead) in the
+/// order-free family: the sphere's contacts added as fixed-point integers (FixedWalkSums), so
+/// its force, torque and contact count are those that PairEntriesFixed and the body kernel's
+/// take give, bit for bit (each pair still evaluated in both rows, with the same arithmetic).
+/// Then the ordered family's body kernels (ReduceKick, ReduceKickDrift) run on them.
+template <bool Cohesion, bool Rolling>
+struct ForcesFixed : Forces<Cohesion, Rolling> {
+  FixedSumArrays fx;
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    Forces<Cohesion, Rolling>::walk_prefetched(*this, a, FixedWalkSums(fx));
   }
 };
 

@@ -1557,7 +1557,7 @@ TEST(GpuEngine, PairListGivesTheBitsOfThePassOverEveryEntry) {
 // and says so; with fixed-point sums fused and unfused body kernels give the same bits; turning
 // the family off and on again mid-run, or a settle phase that halts the kernels, leaves no sums
 // behind (the run goes on bit-identical to an engine uploaded from its state); and asking for the
-// row walk turns the fixed-point sums off in fact and in the report.
+// row walk runs the family's row walk (ForcesFixed), which the report names.
 TEST(GpuEngine, FixedSumsByTheSwitchFusedUnfusedAndMidRun) {
   {
     auto s = packing(0.5e-3);
@@ -1626,11 +1626,68 @@ TEST(GpuEngine, FixedSumsByTheSwitchFusedUnfusedAndMidRun) {
     auto s = packing(0.5e-3);
     auto e = gpu_engine(*s);
     e->set_fixed_sums(true);
-    e->set_entry_forces(false);  // the row walk: ordered sums
+    e->set_entry_forces(false);  // the family's row walk
     e->upload();
     e->advance(20);
-    EXPECT_EQ(e->fixed_sum_passes(), 0u);
-    EXPECT_EQ(e->contact_kernels().find("fixed-point"), std::string::npos) << e->contact_kernels();
+    EXPECT_EQ(e->fixed_sum_passes(), 20u);
+    EXPECT_EQ(e->entry_force_passes(), 0u);
+    EXPECT_NE(e->contact_kernels().find("ForcesFixed"), std::string::npos) << e->contact_kernels();
+  }
+}
+
+// The order-free family's two sets give the same bits: the row walk by one thread per sphere
+// with its sums as integers (ForcesFixed; each pair evaluated in both rows) and the per-contact
+// kernels with atomic additions (PairEntriesFixed). The packing (needles, then spheres) and the
+// compressed bed, in runs across list checks, rebuilds, a criterion phase and an upload: bit-
+// identical after every run; and the timed choice switching between the two sets in the middle
+// of the runs (BIODEM_GPU_FORCES=timed, re-timed every 60 steps) against the per-contact set.
+// (With the force of a pair's higher-id side not negated in the walk it fails: checked.)
+TEST(GpuEngine, FixedSumsRowWalkGivesTheBitsOfThePerContactKernels) {
+  for (const int scene : {0, 1, 2}) {
+    SCOPED_TRACE(scene == 0 ? "needles" : scene == 1 ? "spheres" : "compressed bed");
+    auto make = [scene] { return scene == 2 ? compressed_bed() : packing(0.5e-3, true, true, scene == 1); };
+    {
+      auto a = make(), b = make();
+      auto ea = gpu_engine(*a), eb = gpu_engine(*b);
+      ea->set_fixed_sums(true);
+      ea->set_entry_forces(false);
+      eb->set_fixed_sums(true);
+      eb->set_entry_forces(true);
+      ea->upload();
+      eb->upload();
+      const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+      std::printf("[measured] fixed-point row walk vs per-contact kernels: %llu steps, %llu list builds, %zu contacts "
+                  "at the end; bit-identical after every run\n",
+                  static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
+                  a->contact_count());
+      EXPECT_EQ(ea->fixed_sum_passes(), steps);
+      EXPECT_EQ(ea->entry_force_passes(), 0u);
+      EXPECT_EQ(eb->entry_force_passes(), steps);
+      EXPECT_GT(a->contact_count(), 2u);
+    }
+    {
+      auto a = make(), b = make();
+      ::setenv("BIODEM_GPU_FORCES", "timed", 1);
+      auto ea = gpu_engine(*a);
+      ::unsetenv("BIODEM_GPU_FORCES");
+      auto eb = gpu_engine(*b);
+      ea->set_fixed_sums(true);
+      eb->set_fixed_sums(true);
+      eb->set_entry_forces(true);
+      ea->set_check_every(3);
+      eb->set_check_every(3);
+      ea->set_retime_every(60);
+      ea->upload();
+      eb->upload();
+      const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
+      std::printf("[measured] fixed-point sums, timed choice vs per-contact kernels: %llu steps, %llu by the "
+                  "per-contact kernels; %s\n",
+                  static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->entry_force_passes()),
+                  ea->contact_kernels().c_str());
+      EXPECT_GT(ea->entry_force_passes(), 0u);
+      EXPECT_LT(ea->entry_force_passes(), steps);
+      EXPECT_EQ(ea->fixed_sum_passes(), steps);
+    }
   }
 }
 

@@ -251,8 +251,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_GPU_BUILD_LANES=0", "BIODEM_GPU_BUILD_LANES=64",
                                 "BIODEM_TEST_GPU_FAULT_IN_THRUST=2", "BIODEM_GPU_SUM_LANES=2", "BIODEM_GPU_WALK_KICK=yes",
                                 "BIODEM_GPU_PDL=on", "BIODEM_GPU_SUMS=sorted",
-                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=rows",
-                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1"}) {
+                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUM_LANES=1",
+                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1", "BIODEM_GPU_PAIR_LIST=short"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -273,6 +273,11 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_NE(slurp(fixed + "/run.log").find("fixed-point sums in any order"), std::string::npos)
       << slurp(fixed + "/run.log");
+  const std::string fixed_rows = fresh_dir("gpu_fixed_sums_rows");  // and its row walk
+  r = run_command("BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=rows BIODEM_GPU_PAIR_LIST=full " + biodem_exe() + " run " +
+                  kNeedles + " --out " + fixed_rows + " --device " + gpu_device());
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(slurp(fixed_rows + "/run.log").find("ForcesFixed"), std::string::npos) << slurp(fixed_rows + "/run.log");
 }
 
 // The switches the CUDA engine applies (BIODEM_GPU_BLOCK, BIODEM_GPU_ROW_LANES, BIODEM_GPU_BUILD_LANES,
