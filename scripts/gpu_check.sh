@@ -32,7 +32,8 @@
 #   5. the same run on the CPU engine: centroid angle, kinetic energy, contacts and final body
 #      positions within stated tolerances;
 #      (3k, after 5) the order-free family (BIODEM_GPU_SUMS=fixed): two runs byte-identical
-#      (emulated, the second on 2 threads with every kernel parallel), killed and resumed
+#      (emulated, the second on 2 threads with every kernel parallel), its row walk
+#      (BIODEM_GPU_FORCES=rows) byte-identical, killed and resumed
 #      byte-identical, within the tolerances of (5) of the CPU engine; on a GPU it also reports
 #      whether the GPU's run is byte-identical to the same run on CPU threads;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
@@ -401,16 +402,19 @@ else
   BIODEM_GPU_SUMS=fixed BIODEM_TEST_PARALLEL_THRESHOLD=0 "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed2" \
     --threads 2 --device "$DEVICE" > "$logs/needles_fixed2.txt" 2>&1; sf2=$?
 fi
+BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=rows run_biodem needles_fixed_rows "$needles" "$OUT/needles_fixed_rows" --device "$DEVICE"; sf3=$?
 BIODEM_GPU_SUMS=fixed BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_fixed_kill "$needles" "$OUT/needles_fixed_kill" --device "$DEVICE"; sfk=$?
 BIODEM_GPU_SUMS=fixed "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed_kill" --threads "$THREADS" --device "$DEVICE" \
   --resume > "$logs/needles_fixed_resume.txt" 2>&1; sfr=$?
 fixed_ok=1; fixed_detail=""
-if [ $sf1 -ne 0 ] || [ $sf2 -ne 0 ]; then
-  fixed_ok=0; fixed_detail="a run failed (logs/needles_fixed.txt, needles_fixed2.txt)"
+if [ $sf1 -ne 0 ] || [ $sf2 -ne 0 ] || [ $sf3 -ne 0 ]; then
+  fixed_ok=0; fixed_detail="a run failed (logs/needles_fixed.txt, needles_fixed2.txt, needles_fixed_rows.txt)"
 elif ! grep -q 'fixed-point sums in any order' "$OUT/needles_fixed/run.log"; then
   fixed_ok=0; fixed_detail="run.log does not name the fixed-point sums"
 elif ! d=$(same_files "$OUT/needles_fixed" "$OUT/needles_fixed2"); then
   fixed_ok=0; fixed_detail="two runs differ: $(echo $d)"
+elif ! d=$(same_files "$OUT/needles_fixed" "$OUT/needles_fixed_rows"); then
+  fixed_ok=0; fixed_detail="the family's row walk (BIODEM_GPU_FORCES=rows, ForcesFixed) differs: $(echo $d)"
 elif [ $sfk -ne 137 ] || [ $sfr -ne 0 ]; then
   fixed_ok=0; fixed_detail="kill status $sfk (137 expected), resume status $sfr"
 elif ! d=$(same_files "$OUT/needles_fixed" "$OUT/needles_fixed_kill"); then
@@ -420,7 +424,7 @@ elif [ $sc -ne 0 ]; then
 elif ! d=$(compare_engines needles "$OUT/needles_cpu" "$OUT/needles_fixed" 0.5 0.05); then
   fixed_ok=0; fixed_detail="against the CPU engine: $d"
 else
-  fixed_detail="two runs byte-identical$([ "$DEVICE" = gpu ] || echo ' (the second on 2 threads, every kernel parallel)'), killed at step 9,001 and resumed byte-identical; against the CPU engine: $d; $(grep -o 'quanta [^)]*' "$OUT/needles_fixed/run.log" | head -n 1)"
+  fixed_detail="two runs byte-identical$([ "$DEVICE" = gpu ] || echo ' (the second on 2 threads, every kernel parallel)'), the family's row walk (BIODEM_GPU_FORCES=rows) byte-identical, killed at step 9,001 and resumed byte-identical; against the CPU engine: $d; $(grep -o 'quanta [^)]*' "$OUT/needles_fixed/run.log" | head -n 1)"
   if [ "$DEVICE" = gpu ]; then  # the same kernels on CPU threads: the same bytes? (reported, not a condition)
     BIODEM_GPU_SUMS=fixed run_biodem needles_fixed_emulated "$needles" "$OUT/needles_fixed_emulated" --device gpu-emulated
     if [ $? -ne 0 ]; then fixed_detail="$fixed_detail; the run on CPU threads failed (logs/needles_fixed_emulated.txt)"
