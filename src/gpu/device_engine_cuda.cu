@@ -695,6 +695,15 @@ struct WarpGroup {
     __syncwarp(mask);
 #endif
   }
+  /// The word that lane src of the group holds (every lane of the group calls it).
+  __host__ __device__ long long shuffle(long long v, std::uint32_t src) const {
+#ifdef __CUDA_ARCH__
+    return __shfl_sync(mask, v, static_cast<int>(src), static_cast<int>(count));
+#else
+    (void)src;
+    return v;
+#endif
+  }
   /// The contact that lane src of the group holds (every lane of the group calls it).
   __host__ __device__ RowContact shuffle(const RowContact& r, std::uint32_t src) const {
 #ifdef __CUDA_ARCH__

@@ -297,7 +297,7 @@ class Engine final : public DeviceEngine {
       fixed_note = std::string(" with fixed-point sums in any order (BIODEM_GPU_SUMS=fixed or a test; ") + q + ")";
     }
     const std::string set = fixed_sums_ ? (use_entry_kernels() ? "per-contact (PairEntriesFixed)" + fixed_note
-                                                               : "per-sphere row walk in one thread (ForcesFixed)" + fixed_note)
+                                                               : "per-sphere row walk (ForcesFixed)" + fixed_note)
                           : use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
                                                 : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
@@ -314,7 +314,7 @@ class Engine final : public DeviceEngine {
       return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
              " choice(s) in the run so far)";
     const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
-    return set + (use_entry_kernels() || fixed_sums_ ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
+    return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
@@ -1324,11 +1324,11 @@ void Engine::launch_forces(const ContactArgs& c) {
     launch(ns(), TakeFixedSums{pe.fx, c.s, c.halt});
     return;
   }
-  if (fixed_sums_) {  // the order-free family's row walk: one thread per sphere, its sums as integers
+  if (fixed_sums_) {  // the order-free family's row walk, its sums as integers (row lanes or one thread)
     ForcesFixed<Cohesion, Rolling> w;
     static_cast<ContactArgs&>(w) = c;
     w.fx = fixed_arrays();
-    launch(ns(), w);
+    launch_walks(ns(), w);
     return;
   }
   if (entries_ready()) {

@@ -1259,10 +1259,55 @@ struct WalksHeadsAhead<W, decltype(void(W::kHeadsAhead))> {
   static constexpr bool value = W::kHeadsAhead;
 };
 
+/// A walker of the order-free family (ForcesFixed) declares kFixedSums and gives its sums object
+/// (walk_sums(): add(RowContact), finish(f, t, count), integer words q[kWords]).
+template <class W, class = void>
+struct WalksFixedSums {
+  static constexpr bool value = false;
+};
+template <class W>
+struct WalksFixedSums<W, decltype(void(W::kFixedSums))> {
+  static constexpr bool value = W::kFixedSums;
+};
+
+/// walk_row_lanes of a walker of the order-free family (heads loaded ahead): lane l adds
+/// contacts l, l + lanes, ... to its own integer sums, and at the end the lanes' sums are added
+/// by a butterfly of shuffles (xor 1, 2, 4, ...), once per walk instead of each contact taken to
+/// every lane in every round. Integer additions in any order are exact: the sums of one thread
+/// walking the row, and of the per-contact kernels (FixedSumArrays), bit for bit.
+template <class W, class Group>
+BIODEM_HD inline void walk_row_lanes_fixed(const W& w, std::uint32_t item, const Group& grp) {
+  const std::uint32_t lanes = grp.size(), lane = grp.lane();
+  auto next = lane < w.head_limit() ? w.walk_head(item, lane) : decltype(w.walk_head(item, lane)){};
+  WalkStart st;
+  if (!w.walk_begin(item, st)) return;
+  auto sums = w.walk_sums();
+  for (std::uint32_t v0 = 0; v0 < st.total; v0 += lanes) {
+    const std::uint32_t v = v0 + lane;
+    if (v < st.len) {
+      const auto head = next;
+      if (v + lanes < st.len) next = w.walk_head(item, v + lanes);
+      sums.add(w.walk_entry_from(st, v, head));
+    } else if (v < st.total) {
+      sums.add(w.walk_entry(st, v));  // a wall
+    }
+  }
+  for (std::uint32_t m = 1; m < lanes; m <<= 1)
+    for (std::uint32_t c = 0; c < sizeof(sums.q) / sizeof(sums.q[0]); ++c) sums.q[c] += grp.shuffle(sums.q[c], lane ^ m);
+  if (lane == 0) {
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    sums.finish(f, t, count);
+    w.walk_end(item, st, f, t, count);
+  }
+}
+
 template <class W, class Group>
 BIODEM_HD inline void walk_row_lanes(const W& w, std::uint32_t item, const Group& grp) {
   const std::uint32_t lanes = grp.size(), lane = grp.lane();
-  if constexpr (WalksHeadsAhead<W>::value) {
+  if constexpr (WalksFixedSums<W>::value) {
+    walk_row_lanes_fixed(w, item, grp);
+  } else if constexpr (WalksHeadsAhead<W>::value) {
     auto next = lane < w.head_limit() ? w.walk_head(item, lane) : decltype(w.walk_head(item, lane)){};
     WalkStart st;
     if (!w.walk_begin(item, st)) return;
@@ -1748,10 +1793,16 @@ struct FixedWalkSums {
 template <bool Cohesion, bool Rolling>
 struct ForcesFixed : Forces<Cohesion, Rolling> {
   FixedSumArrays fx;
+  /// On CUDA shared by the row lanes (walk_row_lanes_fixed: the lanes' integer sums added once,
+  /// at the end); one thread here.
+  static constexpr bool kFixedSums = true;
+  BIODEM_HD FixedWalkSums walk_sums() const { return FixedWalkSums(fx); }
   BIODEM_HD void operator()(std::uint32_t a) const {
     Forces<Cohesion, Rolling>::walk_prefetched(*this, a, FixedWalkSums(fx));
   }
 };
+static_assert(WalksFixedSums<ForcesFixed<true, true>>::value && !WalksFixedSums<Forces<true, true>>::value,
+              "the order-free family's row walk adds the lanes' integer sums once");
 
 /// PairEntries of the order-free family: one thread per row entry and wall slot, each pair
 /// evaluated once by its lower-id side's entry (pair_entry, the same contact arithmetic), each

@@ -45,8 +45,9 @@ struct GroupState {
   std::barrier<> bar;
   std::vector<std::uint8_t> votes;
   std::vector<RowContact> contacts;
+  std::vector<long long> words;
   explicit GroupState(std::uint32_t lanes)
-      : bar(static_cast<std::ptrdiff_t>(lanes)), votes(lanes), contacts(lanes) {}
+      : bar(static_cast<std::ptrdiff_t>(lanes)), votes(lanes), contacts(lanes), words(lanes) {}
 };
 struct ThreadLanes {
   GroupState* g;
@@ -62,6 +63,13 @@ struct ThreadLanes {
     return bits;
   }
   void sync() const { g->bar.arrive_and_wait(); }
+  long long shuffle(long long v, std::uint32_t src) const {
+    g->words[me] = v;
+    g->bar.arrive_and_wait();
+    const long long o = g->words[src];
+    g->bar.arrive_and_wait();  // (read before the next shuffle writes)
+    return o;
+  }
   RowContact shuffle(const RowContact& r, std::uint32_t src) const {
     g->contacts[me] = r;
     g->bar.arrive_and_wait();
@@ -466,6 +474,76 @@ TEST(RowWalkLanes, LanesLoadingTheirHeadsAheadGiveTheSumsOfOneThread) {
     std::printf("[measured] row walk with %u lanes loading heads ahead vs one thread: %zu walks differ, %u wrong heads\n",
                 lanes, differ, wrong.load());
   }
+}
+
+namespace {
+/// MadeUpWalkAhead as a walker of the order-free family (kFixedSums, as ForcesFixed): its
+/// contacts rounded to a grid that holds the made-up values and added as integers.
+struct MadeUpWalkFixed : MadeUpWalkAhead {
+  FixedSumArrays fx{nullptr, gpu::fixed::scale_for(1024.0), 1.0 / gpu::fixed::scale_for(1024.0), gpu::fixed::scale_for(1024.0),
+                    1.0 / gpu::fixed::scale_for(1024.0), gpu::fixed::limit_for(64)};
+  static constexpr bool kFixedSums = true;
+  FixedWalkSums walk_sums() const { return FixedWalkSums(fx); }
+};
+}  // namespace
+
+// The order-free family's row walk shared by lanes (walk_row_lanes_fixed, the path ForcesFixed
+// takes on CUDA): each lane adds its contacts l, l + lanes, ... (from the heads it loaded ahead)
+// to integer sums, and the lanes' sums are added once, by a butterfly of shuffles. Groups of 1,
+// 2, 4, 16 and 32 thread lanes give, bit for bit, the sums of one thread adding the walk's
+// contacts as integers (FixedWalkSums in walk order), over walks of 0 to 40 contacts whose
+// values span six decades; no wrong head is used, every walk ends once. (With the butterfly's
+// last level left out it fails: checked.)
+TEST(RowWalkLanes, FixedSumsByLanesGiveTheSumsOfOneThread) {
+  constexpr std::uint32_t kItems = 300;
+  std::vector<Vec3> f1(kItems, Vec3{-1, -1, -1}), t1(kItems, Vec3{-1, -1, -1});
+  std::vector<std::uint32_t> c1(kItems, 12345), e1(kItems, 0);
+  std::atomic<std::uint32_t> wrong1{0}, heads1{0};
+  MadeUpWalkFixed one;
+  static_cast<MadeUpWalk&>(one) = MadeUpWalk{f1.data(), t1.data(), c1.data(), e1.data()};
+  one.wrong = &wrong1;
+  one.from_heads = &heads1;
+  std::size_t contacts = 0;
+  for (std::uint32_t i = 0; i < kItems; ++i) {  // one thread, in walk order
+    WalkStart st;
+    if (!one.walk_begin(i, st)) continue;
+    FixedWalkSums sums = one.walk_sums();
+    for (std::uint32_t v = 0; v < st.total; ++v) sums.add(one.walk_entry(st, v));
+    Vec3 f, t;
+    std::uint32_t c = 0;
+    sums.finish(f, t, c);
+    one.walk_end(i, st, f, t, c);
+    contacts += c;
+  }
+  for (const std::uint32_t lanes : {1u, 2u, 4u, 16u, 32u}) {
+    std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
+    std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
+    std::atomic<std::uint32_t> wrong{0}, from_heads{0};
+    MadeUpWalkFixed grouped;
+    static_cast<MadeUpWalk&>(grouped) = MadeUpWalk{f.data(), t.data(), c.data(), e.data()};
+    grouped.wrong = &wrong;
+    grouped.from_heads = &from_heads;
+    walk_rows_in_thread_lanes(grouped, kItems, lanes);
+    std::size_t differ = 0;
+    for (std::uint32_t i = 0; i < kItems; ++i)
+      differ += !(std::memcmp(&f[i], &f1[i], sizeof(Vec3)) == 0 && std::memcmp(&t[i], &t1[i], sizeof(Vec3)) == 0 &&
+                  c[i] == c1[i] && e[i] == e1[i]);
+    EXPECT_EQ(differ, 0u) << lanes << " lanes";
+    EXPECT_EQ(wrong.load(), 0u) << lanes << " lanes";
+    std::printf("[measured] fixed-point row walk with %u lanes vs one thread: %zu walks differ, %u wrong heads\n",
+                lanes, differ, wrong.load());
+  }
+  EXPECT_GT(contacts, 1000u);
+  // the integer sums are not the double sums in walk order (the values span six decades)
+  std::vector<Vec3> fd(kItems), td(kItems);
+  std::vector<std::uint32_t> cd(kItems), ed(kItems, 0);
+  const MadeUpWalk dbl{fd.data(), td.data(), cd.data(), ed.data()};
+  std::size_t other_bits = 0;
+  for (std::uint32_t i = 0; i < kItems; ++i) {
+    walk_row(dbl, i);
+    other_bits += ed[i] && std::memcmp(&fd[i], &f1[i], sizeof(Vec3)) != 0;
+  }
+  EXPECT_GT(other_bits, 10u);
 }
 
 // 3. A list built with the box of the list check's motion, one step old (Engine::check_list), on
