@@ -94,7 +94,8 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=entries \
-  BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_FORCES=entries \
+  BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 \
+  BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 BIODEM_GPU_FORCES=entries \
   BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_PDL=0 \
