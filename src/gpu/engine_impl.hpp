@@ -148,10 +148,10 @@ class Engine final : public DeviceEngine {
     // BIODEM_GPU_SUMS=ordered|fixed: each sphere's contact sums in the row order as doubles (the
     // default; every kernel set above gives the same bits), or as 64-bit fixed-point integers
     // added in any order (the order-free family; its own bits, the same on any number of threads;
-    // fixed_sums.hpp): its two sets, the per-contact kernels (PairEntriesFixed, then the body
-    // kernels) and the row walk by one thread per sphere (ForcesFixed), give the same bits, so
-    // BIODEM_GPU_FORCES chooses between them as between the ordered sets. It has no set with the
-    // sums by the row lanes or with the body update in the walk.
+    // fixed_sums.hpp): its sets, the per-contact kernels (PairEntriesFixed, then the body
+    // kernels) and the row walk (ForcesFixed, in one thread or by the row lanes), give the same
+    // bits, so BIODEM_GPU_FORCES chooses between them as between the ordered sets. It has no set
+    // with the entry sums by the row lanes or with the body update in the walk.
     if (const char* sums = std::getenv("BIODEM_GPU_SUMS"); sums && *sums) {
       const std::string v(sums);
       if (v != "ordered" && v != "fixed") throw Error("BIODEM_GPU_SUMS = '" + v + "': expected ordered or fixed");
@@ -651,7 +651,7 @@ class Engine final : public DeviceEngine {
   enum class WalkKick { automatic, off, on };
   WalkKick walk_kick_mode_ = WalkKick::automatic;
   bool walk_kick() const {
-    if (!single_spheres_ || entries_ready()) return false;
+    if (!single_spheres_ || entries_ready() || fixed_sums_) return false;  // (the order-free family has none)
     if (walk_kick_mode_ != WalkKick::automatic) return walk_kick_mode_ == WalkKick::on;
     return timed_choice() && tuned_set() == 4;
   }

@@ -1753,7 +1753,10 @@ struct FixedSumArrays {
 /// rounded to the grid (as FixedSumArrays::add_pair and add round them: the force on the pair's
 /// lower-id sphere once, negated for the other side, each side's torque) and added as integers,
 /// converted at the end as FixedSumArrays::convert does. Integer sums in any order are the same,
-/// so the walk's sums are the bits of PairEntriesFixed's atomic additions.
+/// so the walk's sums are the bits of PairEntriesFixed's atomic additions, except where a
+/// contribution is refused: add_pair flags both spheres when any of the pair's nine values is
+/// out of range, the walk each sphere for its own six (the run stops either way, at the next
+/// list check, but the first non-finite sphere it names may differ).
 struct FixedWalkSums {
   FixedSumArrays fx;  // (its grid; its sums are not touched)
   long long q[8] = {};

@@ -490,7 +490,7 @@ struct MadeUpWalkFixed : MadeUpWalkAhead {
 // The order-free family's row walk shared by lanes (walk_row_lanes_fixed, the path ForcesFixed
 // takes on CUDA): each lane adds its contacts l, l + lanes, ... (from the heads it loaded ahead)
 // to integer sums, and the lanes' sums are added once, by a butterfly of shuffles. Groups of 1,
-// 2, 4, 16 and 32 thread lanes give, bit for bit, the sums of one thread adding the walk's
+// 2, 4, 8, 16 and 32 thread lanes give, bit for bit, the sums of one thread adding the walk's
 // contacts as integers (FixedWalkSums in walk order), over walks of 0 to 40 contacts whose
 // values span six decades; no wrong head is used, every walk ends once. (With the butterfly's
 // last level left out it fails: checked.)
@@ -515,7 +515,7 @@ TEST(RowWalkLanes, FixedSumsByLanesGiveTheSumsOfOneThread) {
     one.walk_end(i, st, f, t, c);
     contacts += c;
   }
-  for (const std::uint32_t lanes : {1u, 2u, 4u, 16u, 32u}) {
+  for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 16u, 32u}) {
     std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
     std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
     std::atomic<std::uint32_t> wrong{0}, from_heads{0};
