@@ -686,53 +686,41 @@ class Engine final : public DeviceEngine {
                         ns(), skin_};
   }
   const Vec3* wall_list_positions_ = nullptr;  // (build_wall_list's: set by its callers)
+  /// A list of the indices 0 .. total - 1 that `flag` marks, in index order (flag, exclusive
+  /// scan, ScatterFlagged; no host wait), `expected` of them (the build's reduction), into
+  /// `list` of capacity `cap` (grown to expected plus an eighth when short: the graphs then
+  /// forgotten) with its count in `count`; `what` names the entries in the 32-bit error.
+  template <class Flag>
+  void build_flag_list(const Flag& flag, std::uint32_t total, std::uint64_t expected, vec<std::uint32_t>& list,
+                       vec<std::uint32_t>& offset, vec<std::uint32_t>& count, std::uint32_t& cap, const char* what) {
+    if (expected > cap || list.empty()) {
+      const std::uint64_t c = expected + expected / 8 + 32;
+      if (c > 0xffffffffull) throw Error("GPU engine: " + std::to_string(expected) + " " + what + " exceed 2^32 (32-bit indices)");
+      cap = static_cast<std::uint32_t>(c);
+      list.resize(cap);
+      invalidate_graphs();
+    }
+    if (total == 0) {
+      thrust::fill(queue(), count.begin(), count.end(), 0u);
+      return;
+    }
+    offset.resize(total);
+    thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
+                                     thrust::counting_iterator<std::uint32_t>(total), offset.begin(), flag, 0u,
+                                     thrust::plus<std::uint32_t>());
+    launch(total, ScatterFlagged<Flag>{flag, raw<std::uint32_t>(offset), total, cap, raw<std::uint32_t>(list),
+                                       raw<std::uint32_t>(count), raw<std::uint32_t>(mirror_missing_)});
+  }
   /// The wall-slot list (the slots within reach, WallSlotNear) of near_wall_slots_ slots, at
   /// wall_list_positions_.
   void build_wall_list() {
-    const std::uint32_t n = ns(), total = n_walls_ * n;
-    const std::uint64_t slots = near_wall_slots_;
-    if (slots > wall_cap_ || wall_k_.empty()) {
-      const std::uint64_t cap = slots + slots / 8 + 32;
-      if (cap > 0xffffffffull) throw Error("GPU engine: " + std::to_string(slots) + " wall slots exceed 2^32 (32-bit indices)");
-      wall_cap_ = static_cast<std::uint32_t>(cap);
-      wall_k_.resize(wall_cap_);
-      invalidate_graphs();
-    }
-    if (total == 0) {
-      thrust::fill(queue(), wall_count_.begin(), wall_count_.end(), 0u);
-      return;
-    }
-    wall_offset_.resize(total);
-    const WallSlotNear near = wall_slot_near(wall_list_positions_);
-    thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
-                                     thrust::counting_iterator<std::uint32_t>(total), wall_offset_.begin(), near, 0u,
-                                     thrust::plus<std::uint32_t>());
-    launch(total, ScatterFlagged<WallSlotNear>{near, raw<std::uint32_t>(wall_offset_), total, wall_cap_,
-                                               raw<std::uint32_t>(wall_k_), raw<std::uint32_t>(wall_count_),
-                                               raw<std::uint32_t>(mirror_missing_)});
+    build_flag_list(wall_slot_near(wall_list_positions_), n_walls_ * ns(), near_wall_slots_, wall_k_, wall_offset_,
+                    wall_count_, wall_cap_, "wall slots");
   }
+  /// The pair list (the lower-id entries, LowerSide): half the rows' entries.
   void build_pair_list() {
-    const std::uint32_t n = ns(), total = rows_.cap * n;
-    const std::uint64_t pairs = row_entries_ / 2;
-    if (pairs > pair_cap_ || pair_k_.empty()) {
-      const std::uint64_t cap = pairs + pairs / 8 + 32;
-      if (cap > 0xffffffffull) throw Error("GPU engine: " + std::to_string(pairs) + " pairs exceed 2^32 (32-bit indices)");
-      pair_cap_ = static_cast<std::uint32_t>(cap);
-      pair_k_.resize(pair_cap_);
-      invalidate_graphs();
-    }
-    if (total == 0) {
-      thrust::fill(queue(), pair_count_.begin(), pair_count_.end(), 0u);
-      return;
-    }
-    pair_offset_.resize(total);
-    const LowerSide lower{rows_.arrays(), raw<std::uint32_t>(s_sid_), n};
-    thrust::transform_exclusive_scan(queue(), thrust::counting_iterator<std::uint32_t>(0),
-                                     thrust::counting_iterator<std::uint32_t>(total), pair_offset_.begin(), lower, 0u,
-                                     thrust::plus<std::uint32_t>());
-    launch(total, ScatterFlagged<LowerSide>{lower, raw<std::uint32_t>(pair_offset_), total, pair_cap_,
-                                            raw<std::uint32_t>(pair_k_), raw<std::uint32_t>(pair_count_),
-                                            raw<std::uint32_t>(mirror_missing_)});
+    build_flag_list(LowerSide{rows_.arrays(), raw<std::uint32_t>(s_sid_), ns()}, rows_.cap * ns(), row_entries_ / 2,
+                    pair_k_, pair_offset_, pair_count_, pair_cap_, "pairs");
   }
   std::uint32_t pair_pass_threads() const {
     ContactArgs::PairList l;
