@@ -267,6 +267,8 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
     rng_text = t.str();
   }
   o.str(rng_text);
+  o.str(rp.engine);  // version 6
+  o.str(rp.contact_sums);
 
   const auto& payload = o.bytes();
   const std::uint64_t sum = fnv1a(payload.data(), payload.size());
@@ -387,6 +389,11 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
       t >> ins.rng;
       if (t.fail()) throw Error(path + ": corrupt checkpoint (insertion random state)");
     }
+  }
+  if (version >= 6) {
+    rp.engine = in.str();
+    rp.contact_sums = in.str();
+    if (rp.engine.size() > 64 || rp.contact_sums.size() > 64) throw Error(path + ": corrupt checkpoint (engine)");
   }
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   if (!std::isfinite(time) || !std::isfinite(rp.rotation_time_s) || !(skin >= 0.0 && skin < 1e300))

@@ -15,8 +15,9 @@
 namespace biodem::checkpoint {
 
 // 2: no per-entry torque_i; 3: sparse wall contacts, removed bodies; 4: lost bodies; 5: insertion
-// state (checkpoints during insertion), last sample and snapshot steps, the last settle verdict.
-inline constexpr std::uint32_t kCheckpointVersion = 5;
+// state (checkpoints during insertion), last sample and snapshot steps, the last settle verdict;
+// 6: the engine that wrote it and, for the GPU engine, its family of contact sums.
+inline constexpr std::uint32_t kCheckpointVersion = 6;
 /// The oldest version load_checkpoint still reads (a version-4 file was never written during
 /// insertion; what it lacks is filled in as the run driver of that version assumed it).
 inline constexpr std::uint32_t kOldestReadableCheckpointVersion = 4;
@@ -49,6 +50,12 @@ struct RunProgress {
   std::uint64_t last_snapshot_step = kNever;   // step of the last snapshot
   bool last_settled = false;                   // the last settle-criterion phase ended at rest
   InsertionProgress insertion;
+  // Version 6 on (empty when read from an older file): the engine that wrote the checkpoint
+  // ("cpu", "gpu" or "gpu-emulated") and, for the GPU engine, its family of contact sums
+  // ("ordered" or "fixed", docs/gpu.md section 2), so that a resumed run can go on with the
+  // family it was written with, and say so when it goes on with another engine or family.
+  std::string engine;
+  std::string contact_sums;
 };
 
 void save_checkpoint(const std::string& path, const sim::Simulation& sim, const RunProgress& progress);

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -58,22 +59,29 @@ void Runner::checkpoint() {
   rp.last_snapshot_step = last_snapshot_step_;
   rp.last_settled = last_settled_;
   rp.insertion = insertion_;
+  rp.engine = engine_name();
+  rp.contact_sums = dev_ ? (dev_->fixed_sums() ? "fixed" : "ordered") : "";
   // frame index is implied by the step count
   checkpoint::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
   fsync_path(opt_.out_dir);
 }
 
+std::string Runner::engine_name() const {
+  return device_ == config::Device::Gpu ? "gpu" : device_ == config::Device::GpuEmulated ? "gpu-emulated" : "cpu";
+}
+
 void Runner::resume() {
   const std::string path = opt_.out_dir + "/checkpoint.bin";
   resumed_ = checkpoint::load_checkpoint(path, sim_);
+  if (resumed_.case_hash != case_hash_)
+    throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
+  adopt_checkpoint_engine(path);
   if (dev_) {
     dev_->upload();  // the checkpoint's forces and contact history: the run continues as it was
     device_current_ = true;
     synced_step_ = sim_.step_count();
     synced_history_ = true;
   }
-  if (resumed_.case_hash != case_hash_)
-    throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
   rotation_time_s_ = resumed_.rotation_time_s;
   snapshot_index_ = resumed_.snapshot_index;
   frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
@@ -92,6 +100,40 @@ void Runner::resume() {
     last_snapshot_step_ = snapshot_every_ && sim_.step_count() % snapshot_every_ == 0 ? sim_.step_count()
                                                                                         : last_snapshot_step_;
   }
+}
+
+/// The GPU engine goes on with the family of contact sums the checkpoint was written with, unless
+/// BIODEM_GPU_SUMS asks for one: a run killed and resumed without the variable it was started
+/// with continues bit for bit. run.log says when the run goes on with another engine or family
+/// than the checkpoint's (its outputs from there on are then those of neither run).
+void Runner::adopt_checkpoint_engine(const std::string& path) {
+  const std::string& was = resumed_.engine;
+  if (was.empty()) return;  // a version-5 file: not recorded
+  const std::string now = engine_name();
+  if (was != now)
+    resume_note_ += "note: " + path + " was written by the " + was + " engine; this run goes on with the " + now +
+                    " engine from its state (the outputs from here on are not those of an uninterrupted " + was +
+                    " run)\n";
+  if (!dev_ || resumed_.contact_sums.empty()) return;
+  const std::string& fam = resumed_.contact_sums;
+  if (fam != "ordered" && fam != "fixed") throw Error(path + ": corrupt checkpoint (GPU contact sums '" + fam + "')");
+  const char* env = std::getenv("BIODEM_GPU_SUMS");
+  const std::string current = dev_->fixed_sums() ? "fixed" : "ordered";
+  if (env && *env) {
+    if (fam != current)
+      resume_note_ += "note: " + path + " was written with the GPU engine's " + fam +
+                      " contact sums; this run goes on with the " + current +
+                      " ones (BIODEM_GPU_SUMS): the outputs from here on are those of neither family's uninterrupted run\n";
+    return;
+  }
+  if (fam == current) return;
+  if (fam == "fixed")
+    for (const char* other : {"BIODEM_GPU_SUM_LANES", "BIODEM_GPU_WALK_KICK"})
+      if (const char* o = std::getenv(other); o && std::string(o) == "1")
+        throw Error("--resume: " + path + " was written with the GPU engine's fixed contact sums (BIODEM_GPU_SUMS=fixed), which have no kernel set for " +
+                    std::string(other) + " = '1'");
+  dev_->set_fixed_sums(fam == "fixed");
+  resume_note_ += "GPU contact sums: " + fam + ", as " + path + " was written (BIODEM_GPU_SUMS unset)\n";
 }
 
 }  // namespace biodem::driver

@@ -232,6 +232,7 @@ RunSummary Runner::run() {
     resume();
     log_.open(opt_.out_dir + "/run.log", std::ios::app);
     log_ << "\nresumed from checkpoint.bin at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")\n";
+    log_ << resume_note_;
     series_ = std::make_unique<output::SeriesWriter>(opt_.out_dir + "/series.csv", true);
     if (cfg_.output.trace) trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::app);
     pvd_ = std::make_unique<output::PvdCollection>(opt_.out_dir + "/snapshots.pvd");

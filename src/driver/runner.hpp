@@ -116,6 +116,9 @@ class Runner {
   std::uint64_t phase_step_ = 0, settle_counter_ = 0;
   checkpoint::RunProgress resumed_;
   bool resumed_run_ = false;
+  std::string resume_note_;  // for run.log: the engine or GPU sum family a resumed run goes on with, when it matters
+  std::string engine_name() const;
+  void adopt_checkpoint_engine(const std::string& path);  // "cpu", "gpu", "gpu-emulated" (as [run] device and checkpoints name it)
   std::uint64_t total_steps_estimate_ = 1;
   double rotation_time_s_ = 0.0;
   std::size_t snapshot_index_ = 0;

@@ -114,6 +114,43 @@ TEST(GpuRuns, StoppedGpuRunResumesBitForBit) {
   }
 }
 
+// A checkpoint records the engine that wrote it and the GPU engine's family of contact sums
+// (checkpoint version 6). A run of the order-free family (BIODEM_GPU_SUMS=fixed) killed and
+// resumed without the variable goes on with the fixed sums: its outputs and final checkpoint are
+// byte-identical to the uninterrupted fixed run (before, it went on with the ordered sums). With
+// BIODEM_GPU_SUMS set to the other family the variable wins, and run.log says the outputs are
+// then neither family's.
+TEST(GpuRuns, ResumedRunKeepsTheContactSumFamilyOfItsCheckpoint) {
+  const std::string full = fresh_dir("gpu_fixed_full");
+  auto rf = run_command("BIODEM_GPU_SUMS=fixed " + biodem_exe() + " run " + kNeedles + " --out " + full +
+                        " --threads 1 --device " + gpu_device());
+  ASSERT_EQ(rf.status, 0) << rf.output;
+  for (const std::string resume_env : {"", "BIODEM_GPU_SUMS=ordered "}) {
+    const std::string d = fresh_dir(resume_env.empty() ? "gpu_fixed_resumed" : "gpu_fixed_resumed_ordered");
+    auto rk = run_command("BIODEM_TEST_ABORT_AT_STEP=9001 BIODEM_GPU_SUMS=fixed " + biodem_exe() + " run " + kNeedles +
+                          " --out " + d + " --threads 1 --device " + gpu_device());
+    ASSERT_EQ(rk.status, 137) << rk.output;
+    auto rr = run_command(resume_env + biodem_exe() + " run " + kNeedles + " --out " + d + " --threads 1 --device " +
+                          gpu_device() + " --resume");
+    ASSERT_EQ(rr.status, 0) << rr.output;
+    const std::string log = slurp(d + "/run.log");
+    if (resume_env.empty()) {
+      EXPECT_NE(log.find("GPU contact sums: fixed, as " + d + "/checkpoint.bin was written (BIODEM_GPU_SUMS unset)"),
+                std::string::npos)
+          << log;
+      expect_same_outputs(full, d);
+      EXPECT_EQ(slurp(full + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
+    } else {
+      EXPECT_NE(log.find("was written with the GPU engine's fixed contact sums; this run goes on with the ordered ones "
+                         "(BIODEM_GPU_SUMS): the outputs from here on are those of neither family's uninterrupted run"),
+                std::string::npos)
+          << log;
+      EXPECT_NE(slurp(full + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
+    }
+    EXPECT_EQ(log.find("was written by the"), std::string::npos) << log;  // same engine: no engine note
+  }
+}
+
 // The settle criterion is evaluated on the device from the phase step and the counter of steps
 // below the threshold that a checkpoint holds: a run killed while the bed is below the threshold
 // but not yet for the whole hold time, and resumed, ends the settle phase at the same step with
@@ -173,6 +210,11 @@ TEST(GpuRuns, CheckpointsMoveBetweenDevices) {
     ASSERT_EQ(rk.status, 137) << rk.output;
     auto rr = run_command(biodem_exe() + " run " + kNeedles + " --out " + d + " --threads 1 --resume --device " + second);
     ASSERT_EQ(rr.status, 0) << rr.output;
+    // run.log says which engine wrote the checkpoint and which goes on.
+    EXPECT_NE(slurp(d + "/run.log").find("was written by the " + first + " engine; this run goes on with the " + second +
+                                         " engine from its state"),
+              std::string::npos)
+        << slurp(d + "/run.log");
     const auto a = to_numbers(read_csv(d + "/series.csv").at("alpha_deg"));
     ASSERT_EQ(a.size(), ref.size());
     double worst = 0.0;

@@ -127,28 +127,47 @@ TEST(CheckpointCorrupt, IndicesThatDoNotFitAreRejected) {
 }
 
 // Version 5 (issue 10, item 5) appends the contact count, the last sample and snapshot steps, the
-// last settle verdict and the insertion state (flag, four counters, the generator's text).
-// A version-4 file is the same payload without that tail: it is still read, with no insertion
-// under way; version 3 and older are refused in one line.
-TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
+// last settle verdict and the insertion state (flag, four counters, the generator's text);
+// version 6 the engine that wrote the file and its GPU contact-sum family (two strings).
+// Versions 4 and 5 are the same payload without those tails: they are still read (version 4 with
+// no insertion under way, both with no engine recorded); version 3 and older, and versions
+// newer than this biodem's, are refused in one line.
+TEST(CheckpointVersions, Versions4And5AreReadAndOthersAreRefused) {
   std::vector<char> b = checkpoint_of([](sim::Simulation&) {}, [](checkpoint::RunProgress& rp) {
     rp.last_sample_step = 40;
     rp.last_snapshot_step = 30;
     rp.last_settled = true;
+    rp.engine = "gpu-emulated";
+    rp.contact_sums = "fixed";
   });
-  const std::size_t tail = 8 + 8 + 8 + 1 + 1 + 4 * 8 + 8;  // no generator text: insertion inactive
+  const std::size_t tail6 = 8 + 12 + 8 + 5;  // two strings: length and bytes
+  const std::size_t tail5 = 8 + 8 + 8 + 1 + 1 + 4 * 8 + 8;  // no generator text: insertion inactive
   const std::size_t payload = b.size() - kHead - 8;
   {
     sim::Simulation s = fuzz::make_scene();
     const auto rp = checkpoint::load_checkpoint_bytes(b, "run/checkpoint.bin", s);
-    EXPECT_EQ(rp.version, 5u);
+    EXPECT_EQ(rp.version, 6u);
     EXPECT_EQ(rp.last_sample_step, 40u);
     EXPECT_EQ(rp.last_snapshot_step, 30u);
     EXPECT_TRUE(rp.last_settled);
     EXPECT_FALSE(rp.insertion.active);
+    EXPECT_EQ(rp.engine, "gpu-emulated");
+    EXPECT_EQ(rp.contact_sums, "fixed");
+  }
+  std::vector<char> v5 = b;
+  rewrap(v5, 5, payload - tail6);
+  {
+    sim::Simulation s = fuzz::make_scene();
+    const auto rp = checkpoint::load_checkpoint_bytes(v5, "run/checkpoint.bin", s);
+    EXPECT_EQ(rp.version, 5u);
+    EXPECT_EQ(rp.last_sample_step, 40u);
+    EXPECT_TRUE(rp.last_settled);
+    EXPECT_EQ(rp.engine, "");
+    EXPECT_EQ(rp.contact_sums, "");
+    s.step();
   }
   std::vector<char> v4 = b;
-  rewrap(v4, 4, payload - tail);
+  rewrap(v4, 4, payload - tail6 - tail5);
   {
     sim::Simulation s = fuzz::make_scene();
     const auto rp = checkpoint::load_checkpoint_bytes(v4, "run/checkpoint.bin", s);
@@ -159,12 +178,16 @@ TEST(CheckpointVersions, Version4IsReadAndOlderOnesAreRefused) {
     EXPECT_EQ(s.step_count(), 50u);
     s.step();
   }
+  // A version-6 payload read as version 5 has trailing bytes: refused.
+  std::vector<char> v6as5 = b;
+  rewrap(v6as5, 5, payload);
+  expect_one_line_error(load_error(v6as5), "trailing data");
   std::vector<char> v3 = v4;
-  rewrap(v3, 3, payload - tail);
-  expect_one_line_error(load_error(v3), "checkpoint format version 3, this biodem reads versions 4 to 5");
-  std::vector<char> v6 = b;
-  rewrap(v6, 6, payload);
-  expect_one_line_error(load_error(v6), "checkpoint format version 6");
+  rewrap(v3, 3, payload - tail6 - tail5);
+  expect_one_line_error(load_error(v3), "checkpoint format version 3, this biodem reads versions 4 to 6");
+  std::vector<char> v7 = b;
+  rewrap(v7, 7, payload);
+  expect_one_line_error(load_error(v7), "checkpoint format version 7");
 }
 
 // The insertion state round-trips, its generator included (the next draws are the same), and a
@@ -192,8 +215,9 @@ TEST(CheckpointVersions, InsertionStateRoundTripsAndADamagedGeneratorIsRejected)
     EXPECT_EQ(rp.insertion.fall_step, 201u);
     for (int k = 0; k < 10; ++k) EXPECT_EQ(rp.insertion.rng(), g());
   }
-  // The generator's text is the last field of the payload: its first character made a letter.
-  const std::size_t payload = b.size() - kHead - 8, at = kHead + payload - text.str().size();
+  // The generator's text is the last field of version 5, followed by version 6's two strings (empty
+  // here: 8 bytes of length each): its first character made a letter.
+  const std::size_t payload = b.size() - kHead - 8, at = kHead + payload - 16 - text.str().size();
   ASSERT_EQ(std::string(b.data() + at, text.str().size()), text.str());
   b[at] = 'x';
   rewrap(b, checkpoint::kCheckpointVersion, payload);
