@@ -1510,8 +1510,7 @@ struct ReduceKickDrift {
   BIODEM_HD void finish(std::uint32_t k, BodyState st, const Vec3& f, const Vec3& t) const {
     b.force[k] = f;
     b.torque[k] = t;
-    integrate::half_kick(st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, h);
-    integrate::kick_and_drift(st.x, st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, h, dt);
+    integrate::half_kick_then_kick_and_drift(st.x, st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, h, dt);
     store_body(b, s, k, st.s0, st.ns, st.x, st.v, st.w, st.l, st.q);
   }
   BIODEM_HD void operator()(std::uint32_t k) const {

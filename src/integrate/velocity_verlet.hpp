@@ -54,4 +54,20 @@ BIODEM_HD inline void half_kick(Vec3& v, Vec3& omega, Vec3& l, const Quat& q, do
   }
 }
 
+/// half_kick of step c, then kick_and_drift of step c + 1 with the same force and torque (the GPU
+/// engine's fused body kernels): the same operations on the same values, so the same bits, less
+/// the lab angular velocity that half_kick derives for a clump from its angular momentum (two
+/// rotations and three divisions), which the turn of kick_and_drift replaces unread.
+BIODEM_HD inline void half_kick_then_kick_and_drift(Vec3& x, Vec3& v, Vec3& omega, Vec3& l, Quat& q, double mass,
+                                                    const Vec3& inertia, std::uint32_t sphere_count, const Vec3& force,
+                                                    const Vec3& torque, double h, double dt) {
+  if (spins_as_sphere(sphere_count, inertia)) {
+    half_kick(v, omega, l, q, mass, inertia, sphere_count, force, torque, h);
+  } else {
+    v += (h / mass) * force;
+    l += h * torque;
+  }
+  kick_and_drift(x, v, omega, l, q, mass, inertia, sphere_count, force, torque, h, dt);
+}
+
 }  // namespace biodem::integrate
