@@ -393,7 +393,11 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   if (version >= 6) {
     rp.engine = in.str();
     rp.contact_sums = in.str();
-    if (rp.engine.size() > 64 || rp.contact_sums.size() > 64) throw Error(path + ": corrupt checkpoint (engine)");
+    // "" when written by other code than a run (tools, tests): nothing recorded.
+    const bool gpu = rp.engine == "gpu" || rp.engine == "gpu-emulated";
+    const bool engine_ok = gpu || rp.engine == "cpu" || rp.engine.empty();
+    const bool sums_ok = gpu ? rp.contact_sums == "ordered" || rp.contact_sums == "fixed" : rp.contact_sums.empty();
+    if (!engine_ok || !sums_ok) throw Error(path + ": corrupt checkpoint (engine or GPU contact sums)");
   }
   if (!in.done()) throw Error(path + ": corrupt checkpoint (trailing data)");
   if (!std::isfinite(time) || !std::isfinite(rp.rotation_time_s) || !(skin >= 0.0 && skin < 1e300))

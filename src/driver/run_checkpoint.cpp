@@ -115,8 +115,7 @@ void Runner::adopt_checkpoint_engine(const std::string& path) {
                     " engine from its state (the outputs from here on are not those of an uninterrupted " + was +
                     " run)\n";
   if (!dev_ || resumed_.contact_sums.empty()) return;
-  const std::string& fam = resumed_.contact_sums;
-  if (fam != "ordered" && fam != "fixed") throw Error(path + ": corrupt checkpoint (GPU contact sums '" + fam + "')");
+  const std::string& fam = resumed_.contact_sums;  // "ordered" or "fixed" (checked by the loader)
   const char* env = std::getenv("BIODEM_GPU_SUMS");
   const std::string current = dev_->fixed_sums() ? "fixed" : "ordered";
   if (env && *env) {
@@ -131,7 +130,7 @@ void Runner::adopt_checkpoint_engine(const std::string& path) {
     for (const char* other : {"BIODEM_GPU_SUM_LANES", "BIODEM_GPU_WALK_KICK"})
       if (const char* o = std::getenv(other); o && std::string(o) == "1")
         throw Error("--resume: " + path + " was written with the GPU engine's fixed contact sums (BIODEM_GPU_SUMS=fixed), which have no kernel set for " +
-                    std::string(other) + " = '1'");
+                    std::string(other) + " = '1'; unset it, or set BIODEM_GPU_SUMS=ordered to go on with the ordered sums");
   dev_->set_fixed_sums(fam == "fixed");
   resume_note_ += "GPU contact sums: " + fam + ", as " + path + " was written (BIODEM_GPU_SUMS unset)\n";
 }

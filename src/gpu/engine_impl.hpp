@@ -294,7 +294,7 @@ class Engine final : public DeviceEngine {
     if (fixed_sums_) {
       char q[96];
       std::snprintf(q, sizeof q, "quanta %.3g N and %.3g N m", 1.0 / fixed_force_scale_, 1.0 / fixed_torque_scale_);
-      fixed_note = std::string(" with fixed-point sums in any order (BIODEM_GPU_SUMS=fixed or a test; ") + q + ")";
+      fixed_note = std::string(" with fixed-point sums in any order (BIODEM_GPU_SUMS=fixed, the family of a resumed checkpoint or a test; ") + q + ")";
     }
     const std::string set = fixed_sums_ ? (use_entry_kernels() ? "per-contact (PairEntriesFixed)" + fixed_note
                                                                : "per-sphere row walk (ForcesFixed)" + fixed_note)

@@ -1,6 +1,6 @@
 // The small scene the checkpoint harness loads into: two shapes (a sphere and a three-sphere
 // clump), two materials, a floor and a drum mantle, four bodies. make_seed_checkpoint() writes a
-// valid checkpoint of it after a few steps (a seed of the committed corpus: seed_v5_*).
+// valid checkpoint of it after a few steps (a seed of the committed corpus: seed_v6_*).
 #pragma once
 #include <string>
 
@@ -73,6 +73,9 @@ inline void make_seed_checkpoint(const std::string& path) {
   rp.insertion.waves = 1;
   rp.insertion.fall_step = 50;
   rp.insertion.rng.seed(1);
+  // Version 6: the engine that wrote it and the GPU engine's family of contact sums.
+  rp.engine = "gpu-emulated";
+  rp.contact_sums = "fixed";
   checkpoint::save_checkpoint(path, s, rp);
 }
 

@@ -118,34 +118,48 @@ TEST(GpuRuns, StoppedGpuRunResumesBitForBit) {
 // (checkpoint version 6). A run of the order-free family (BIODEM_GPU_SUMS=fixed) killed and
 // resumed without the variable goes on with the fixed sums: its outputs and final checkpoint are
 // byte-identical to the uninterrupted fixed run (before, it went on with the ordered sums). With
-// BIODEM_GPU_SUMS set to the other family the variable wins, and run.log says the outputs are
-// then neither family's.
+// the variable set to the same family nothing is said; set to the other family the variable
+// wins, and run.log says the outputs are then neither family's. A resume that would adopt the
+// fixed sums beside BIODEM_GPU_SUM_LANES=1 (no such kernel set) is one line that says what to do.
 TEST(GpuRuns, ResumedRunKeepsTheContactSumFamilyOfItsCheckpoint) {
   const std::string full = fresh_dir("gpu_fixed_full");
   auto rf = run_command("BIODEM_GPU_SUMS=fixed " + biodem_exe() + " run " + kNeedles + " --out " + full +
                         " --threads 1 --device " + gpu_device());
   ASSERT_EQ(rf.status, 0) << rf.output;
-  for (const std::string resume_env : {"", "BIODEM_GPU_SUMS=ordered "}) {
-    const std::string d = fresh_dir(resume_env.empty() ? "gpu_fixed_resumed" : "gpu_fixed_resumed_ordered");
+  int k = 0;
+  for (const std::string resume_env : {"", "BIODEM_GPU_SUMS=fixed ", "BIODEM_GPU_SUMS=ordered ", "BIODEM_GPU_SUM_LANES=1 "}) {
+    const std::string d = fresh_dir("gpu_fixed_resumed_" + std::to_string(k++));
     auto rk = run_command("BIODEM_TEST_ABORT_AT_STEP=9001 BIODEM_GPU_SUMS=fixed " + biodem_exe() + " run " + kNeedles +
                           " --out " + d + " --threads 1 --device " + gpu_device());
     ASSERT_EQ(rk.status, 137) << rk.output;
     auto rr = run_command(resume_env + biodem_exe() + " run " + kNeedles + " --out " + d + " --threads 1 --device " +
                           gpu_device() + " --resume");
+    if (resume_env == "BIODEM_GPU_SUM_LANES=1 ") {
+      EXPECT_EQ(rr.status, 2) << rr.output;
+      EXPECT_NE(rr.output.find("which have no kernel set for BIODEM_GPU_SUM_LANES = '1'; unset it, or set "
+                               "BIODEM_GPU_SUMS=ordered to go on with the ordered sums"),
+                std::string::npos)
+          << rr.output;
+      continue;
+    }
     ASSERT_EQ(rr.status, 0) << rr.output;
     const std::string log = slurp(d + "/run.log");
-    if (resume_env.empty()) {
-      EXPECT_NE(log.find("GPU contact sums: fixed, as " + d + "/checkpoint.bin was written (BIODEM_GPU_SUMS unset)"),
+    const std::string resumed = log.substr(log.find("resumed from checkpoint.bin"));
+    const bool fixed_on = resumed.find("with fixed-point sums in any order") != std::string::npos;
+    const std::string adopted = "GPU contact sums: fixed, as " + d + "/checkpoint.bin was written (BIODEM_GPU_SUMS unset)";
+    if (resume_env == "BIODEM_GPU_SUMS=ordered ") {
+      EXPECT_NE(resumed.find("was written with the GPU engine's fixed contact sums; this run goes on with the ordered "
+                             "ones (BIODEM_GPU_SUMS): the outputs from here on are those of neither family's "
+                             "uninterrupted run"),
                 std::string::npos)
           << log;
+      EXPECT_FALSE(fixed_on) << resumed;
+    } else {
+      EXPECT_EQ(resumed.find(adopted) != std::string::npos, resume_env.empty()) << log;
+      EXPECT_EQ(resumed.find("note: "), std::string::npos) << log;
+      EXPECT_TRUE(fixed_on) << resumed;
       expect_same_outputs(full, d);
       EXPECT_EQ(slurp(full + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
-    } else {
-      EXPECT_NE(log.find("was written with the GPU engine's fixed contact sums; this run goes on with the ordered ones "
-                         "(BIODEM_GPU_SUMS): the outputs from here on are those of neither family's uninterrupted run"),
-                std::string::npos)
-          << log;
-      EXPECT_NE(slurp(full + "/checkpoint.bin"), slurp(d + "/checkpoint.bin"));
     }
     EXPECT_EQ(log.find("was written by the"), std::string::npos) << log;  // same engine: no engine note
   }

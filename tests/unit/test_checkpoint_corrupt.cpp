@@ -13,6 +13,7 @@
 #include <iterator>
 #include <string>
 #include <vector>
+#include <utility>
 
 #include <unistd.h>
 
@@ -185,6 +186,15 @@ TEST(CheckpointVersions, Versions4And5AreReadAndOthersAreRefused) {
   std::vector<char> v3 = v4;
   rewrap(v3, 3, payload - tail6 - tail5);
   expect_one_line_error(load_error(v3), "checkpoint format version 3, this biodem reads versions 4 to 6");
+  // The engine and the family are checked when read: one of the names a run writes.
+  for (const auto& [engine, sums] : std::vector<std::pair<std::string, std::string>>{
+           {"gpu\nx", "fixed"}, {"cpu", "fixed"}, {"gpu", ""}, {"gpu", "sorted"}, {"", "ordered"}}) {
+    const std::vector<char> bad = checkpoint_of([](sim::Simulation&) {}, [&](checkpoint::RunProgress& rp) {
+      rp.engine = engine;
+      rp.contact_sums = sums;
+    });
+    expect_one_line_error(load_error(bad), "corrupt checkpoint (engine or GPU contact sums)");
+  }
   std::vector<char> v7 = b;
   rewrap(v7, 7, payload);
   expect_one_line_error(load_error(v7), "checkpoint format version 7");
