@@ -33,8 +33,8 @@
 #      positions within stated tolerances;
 #      (3k, after 5) the order-free family (BIODEM_GPU_SUMS=fixed): two runs byte-identical
 #      (emulated, the second on 2 threads with every kernel parallel), its row walk
-#      (BIODEM_GPU_FORCES=rows) byte-identical, killed and resumed
-#      byte-identical, within the tolerances of (5) of the CPU engine; on a GPU it also reports
+#      (BIODEM_GPU_FORCES=rows) byte-identical, killed and resumed (without the variable: the
+#      checkpoint's family goes on) byte-identical, within the tolerances of (5) of the CPU engine; on a GPU it also reports
 #      whether the GPU's run is byte-identical to the same run on CPU threads;
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
@@ -404,7 +404,8 @@ else
 fi
 BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=rows run_biodem needles_fixed_rows "$needles" "$OUT/needles_fixed_rows" --device "$DEVICE"; sf3=$?
 BIODEM_GPU_SUMS=fixed BIODEM_TEST_ABORT_AT_STEP=9001 run_biodem needles_fixed_kill "$needles" "$OUT/needles_fixed_kill" --device "$DEVICE"; sfk=$?
-BIODEM_GPU_SUMS=fixed "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed_kill" --threads "$THREADS" --device "$DEVICE" \
+# (resumed without the variable: the checkpoint's family goes on, checkpoint format 6)
+env -u BIODEM_GPU_SUMS "${TMO[@]}" "$bin" run "$needles" --out "$OUT/needles_fixed_kill" --threads "$THREADS" --device "$DEVICE" \
   --resume > "$logs/needles_fixed_resume.txt" 2>&1; sfr=$?
 fixed_ok=1; fixed_detail=""
 if [ $sf1 -ne 0 ] || [ $sf2 -ne 0 ] || [ $sf3 -ne 0 ]; then
