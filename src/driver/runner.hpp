@@ -117,8 +117,8 @@ class Runner {
   checkpoint::RunProgress resumed_;
   bool resumed_run_ = false;
   std::string resume_note_;  // for run.log: the engine or GPU sum family a resumed run goes on with, when it matters
-  std::string engine_name() const;
-  void adopt_checkpoint_engine(const std::string& path);  // "cpu", "gpu", "gpu-emulated" (as [run] device and checkpoints name it)
+  std::string engine_name() const;  // "cpu", "gpu", "gpu-emulated" (as [run] device and checkpoints name it)
+  void adopt_checkpoint_engine(const std::string& path);  // resume(): the checkpoint's GPU contact sums, the notes
   std::uint64_t total_steps_estimate_ = 1;
   double rotation_time_s_ = 0.0;
   std::size_t snapshot_index_ = 0;
