@@ -784,6 +784,7 @@ class Engine final : public DeviceEngine {
   void launch_forces(const ContactArgs& c);
   std::uint64_t fused_units_ = 0;   // (second half, first half) pairs done by the fused kernel
   bool single_spheres_ = false;     // every body has one sphere (upload)
+  bool centred_spheres_ = false;    // and that sphere at its centre: the body kernels skip the offset's load
   std::uint64_t summed_in_kick_ = 0;  // fused units whose sphere sums ran in SumEntriesKickDrift
   /// BIODEM_GPU_PROFILE=1: the host waits for the device after each run of units, list check and
   /// build, and adds up their wall times (a wait the step loop makes anyway at every check, so
@@ -880,6 +881,9 @@ inline void Engine::upload() {
   single_spheres_ = true;
   for (std::size_t k = 0; k < b.size(); ++k)
     if (b.sphere_count[k] != 1 || b.first_sphere[k] != k) single_spheres_ = false;
+  // (a body sort keeps both: a one-sphere body's sphere moves with it, its offset with it)
+  centred_spheres_ = single_spheres_ && std::all_of(s.offset_body_m.begin(), s.offset_body_m.end(),
+                                                    [](const Vec3& o) { return o == Vec3{}; });
 
   const std::size_t n = s.size();
   // Stable sphere ids: spheres numbered body by body in stable body id order.
@@ -1331,7 +1335,9 @@ void Engine::launch_forces(const ContactArgs& c) {
   }
 }
 
-inline void Engine::first_half() { launch(nb(), KickDriftSpheres{body_arrays(), sphere_arrays(), 0.5 * dt_, dt_, halt()}); }
+inline void Engine::first_half() {
+  launch(nb(), KickDriftSpheres{body_arrays(), sphere_arrays(), 0.5 * dt_, dt_, halt(), centred_spheres_});
+}
 
 inline void Engine::second_half() {
   compute_forces(halt());
@@ -1348,7 +1354,7 @@ inline void Engine::second_half() {
 }
 
 inline void Engine::fused_unit(bool from_second) {
-  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt()};
+  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt(), centred_spheres_};
   if (fixed_sums_ && entries_ready()) {  // the order-free family: the sums inside the body kernel
     const ContactArgs c = contact_args(halt());
     const FixedSumArrays fx = fixed_arrays();
