@@ -672,7 +672,7 @@ class Engine final : public DeviceEngine {
   bool compact_pairs_ = true;
   std::uint64_t row_entries_ = 0;          // entries of all rows at the last build (each pair twice)
   std::uint64_t near_wall_slots_ = 0;      // wall slots within reach at the last build
-  vec<std::uint32_t> pair_k_, pair_offset_;
+  vec<std::uint32_t> pair_k_, pair_j_, pair_offset_;  // the listed entries, their neighbours (same capacity)
   vec<std::uint32_t> pair_count_ = vec<std::uint32_t>(1, 0u);
   std::uint32_t pair_cap_ = 0;
   vec<std::uint32_t> wall_k_, wall_offset_;
@@ -689,15 +689,18 @@ class Engine final : public DeviceEngine {
   /// A list of the indices 0 .. total - 1 that `flag` marks, in index order (flag, exclusive
   /// scan, ScatterFlagged; no host wait), `expected` of them (the build's reduction), into
   /// `list` of capacity `cap` (grown to expected plus an eighth when short: the graphs then
-  /// forgotten) with its count in `count`; `what` names the entries in the 32-bit error.
+  /// forgotten) with its count in `count`; `what` names the entries in the 32-bit error. With
+  /// `also`, also[place] = also_from[index] for each listed index (same capacity).
   template <class Flag>
   void build_flag_list(const Flag& flag, std::uint32_t total, std::uint64_t expected, vec<std::uint32_t>& list,
-                       vec<std::uint32_t>& offset, vec<std::uint32_t>& count, std::uint32_t& cap, const char* what) {
-    if (expected > cap || list.empty()) {
-      const std::uint64_t c = expected + expected / 8 + 32;
+                       vec<std::uint32_t>& offset, vec<std::uint32_t>& count, std::uint32_t& cap, const char* what,
+                       vec<std::uint32_t>* also = nullptr, const std::uint32_t* also_from = nullptr) {
+    if (expected > cap || list.empty() || (also && also->size() != list.size())) {
+      const std::uint64_t c = std::max<std::uint64_t>(expected + expected / 8 + 32, cap);
       if (c > 0xffffffffull) throw Error("GPU engine: " + std::to_string(expected) + " " + what + " exceed 2^32 (32-bit indices)");
       cap = static_cast<std::uint32_t>(c);
       list.resize(cap);
+      if (also) also->resize(cap);
       invalidate_graphs();
     }
     if (total == 0) {
@@ -709,7 +712,8 @@ class Engine final : public DeviceEngine {
                                      thrust::counting_iterator<std::uint32_t>(total), offset.begin(), flag, 0u,
                                      thrust::plus<std::uint32_t>());
     launch(total, ScatterFlagged<Flag>{flag, raw<std::uint32_t>(offset), total, cap, raw<std::uint32_t>(list),
-                                       raw<std::uint32_t>(count), raw<std::uint32_t>(mirror_missing_)});
+                                       raw<std::uint32_t>(count), raw<std::uint32_t>(mirror_missing_), also_from,
+                                       also ? raw<std::uint32_t>(*also) : nullptr});
   }
   /// The wall-slot list (the slots within reach, WallSlotNear) of near_wall_slots_ slots, at
   /// wall_list_positions_.
@@ -720,7 +724,7 @@ class Engine final : public DeviceEngine {
   /// The pair list (the lower-id entries, LowerSide): half the rows' entries.
   void build_pair_list() {
     build_flag_list(LowerSide{rows_.arrays(), raw<std::uint32_t>(s_sid_), ns()}, rows_.cap * ns(), row_entries_ / 2,
-                    pair_k_, pair_offset_, pair_count_, pair_cap_, "pairs");
+                    pair_k_, pair_offset_, pair_count_, pair_cap_, "pairs", &pair_j_, rows_.arrays().j);
   }
   std::uint32_t pair_pass_threads() const {
     ContactArgs::PairList l;
@@ -1269,6 +1273,7 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   c.rows = rows_.arrays();
   if (compact_pairs_) {
     c.pair_list.k = raw<std::uint32_t>(pair_k_);
+    c.pair_list.j = raw<std::uint32_t>(pair_j_);
     c.pair_list.count = raw<std::uint32_t>(pair_count_);
     c.pair_list.cap = pair_cap_;
     c.pair_list.on = true;

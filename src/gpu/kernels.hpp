@@ -854,6 +854,7 @@ struct ContactArgs {
   /// (BIODEM_GPU_PAIR_LIST=full): one per row entry and wall slot.
   struct PairList {
     const std::uint32_t* k = nullptr;
+    const std::uint32_t* j = nullptr;  // the neighbour of entry k[t] (rows.j[k[t]] at the build)
     const std::uint32_t* count = nullptr;
     std::uint32_t cap = 0;
     bool on = false;
@@ -863,17 +864,22 @@ struct ContactArgs {
     std::uint32_t wall_cap = 0;
   } pair_list;
 
-  /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a) for the
-  /// entry k of sphere a's row that is its pair's lower-id side, wall(a, w) for sphere a and wall
-  /// w; nothing for the other threads (a pair's higher-id side, entries past a row's end, listed
-  /// slots past the count). The threads of a pass: pass_threads.
+  /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a, b) for
+  /// the entry k of sphere a's row that is its pair's lower-id side, wall(a, w) for sphere a and
+  /// wall w; nothing for the other threads (a pair's higher-id side, entries past a row's end,
+  /// listed slots past the count). b: the neighbour when the pair list gives it (then sid_a is
+  /// not loaded: a is known to be the lower-id side), else kUnlisted. The threads of a pass:
+  /// pass_threads.
+  static constexpr std::uint32_t kUnlisted = 0xffffffffu;
   template <class Pair, class Wall>
   BIODEM_HD void pair_pass(std::uint32_t t, const Pair& pair, const Wall& wall) const {
     if (pair_list.on) {
       if (t < pair_list.cap) {
-        if (t >= *pair_list.count) return;
-        const std::uint32_t k = pair_list.k[t], a = k % n;
-        pair(k, a, s.sid[a]);
+        // The count, the entry and its neighbour in one round of loads (the slots past the count
+        // hold zeros or an earlier build's values: loaded, not used).
+        const std::uint32_t count = *pair_list.count, k = pair_list.k[t], b = pair_list.j[t];
+        if (t >= count) return;
+        pair(k, k % n, 0u, b);
         return;
       }
       const std::uint32_t u = t - pair_list.cap;
@@ -894,7 +900,7 @@ struct ContactArgs {
     if (q >= rows.length[a]) return;
     const std::uint32_t sid_a = s.sid[a];
     if (!(sid_a < rows.sid[t])) return;  // the pair's higher-id side: written by the other entry
-    pair(t, a, sid_a);
+    pair(t, a, sid_a, kUnlisted);
   }
   /// The threads of a per-contact pass over rows of `cap` entries and `walls` walls.
   static std::uint32_t pass_threads(const PairList& l, std::uint32_t cap, std::uint32_t walls, std::uint32_t n) {
@@ -918,8 +924,11 @@ struct ContactArgs {
                             bool& a_low, Vec3* torque_b = nullptr) const {
     return pair_entry_from<Cohesion, Rolling>(entry_head(k), a, sid_a, k, force_low, torque_a, a_low, torque_b);
   }
-  /// The same with entry k's head (entry_head) already loaded by the caller.
-  template <bool Cohesion, bool Rolling>
+  /// The same with entry k's head (entry_head) already loaded by the caller. Listed: entry k
+  /// comes from the pair list, so a is the pair's lower-id side (sid_a and e.sid_b are not read)
+  /// and e.b the list's neighbour: the two spheres' loads and the history's then wait for no
+  /// load of the entry (the same values, the same arithmetic: the same bits).
+  template <bool Cohesion, bool Rolling, bool Listed = false>
   BIODEM_HD bool pair_entry_from(const EntryHead& e, std::uint32_t a, std::uint32_t sid_a, std::uint32_t k,
                                  Vec3& force_low, Vec3& torque_a, bool& a_low, Vec3* torque_b = nullptr) const {
     // The loads in as few dependent rounds as the data allow (on a GPU each round is a wait for
@@ -930,9 +939,9 @@ struct ContactArgs {
     // cached) and a new contact's history after it. Loads only: the arithmetic and its order are
     // unchanged.
     const std::uint32_t b = e.b;
-    const std::uint32_t sid_b = e.sid_b;
     const bool was_touching = e.was_touching;
-    a_low = sid_a < sid_b;
+    if constexpr (Listed) a_low = true;
+    else a_low = sid_a < e.sid_b;
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
     const Vec3 pi = s.position[i], pj = s.position[j];
     const double ri = s.radius[i], rj = s.radius[j];
@@ -940,7 +949,9 @@ struct ContactArgs {
     const Vec3 vi = s.velocity[i], vj = s.velocity[j], wi = s.omega[i], wj = s.omega[j];
     const std::uint32_t mat_i = s.material[i], mat_j = s.material[j];
     contact::ContactHistory h{};
-    if (was_touching) h = rows.history[k];
+    // (Listed: loaded whatever the flag, in the round of the spheres' loads; a new contact below
+    // takes the same value, nothing having written it since.)
+    if (Listed || was_touching) h = rows.history[k];
     Vec3 d = pi - pj;
     if (periodic) {
       const std::int32_t c = rows.image[k];
@@ -958,7 +969,7 @@ struct ContactArgs {
       }
       return false;
     }
-    if (!was_touching) h = rows.history[k];
+    if (!Listed && !was_touching) h = rows.history[k];
     const contact::PairParams p = pairs[mat_i * n_materials + mat_j];
     const double dist = sqrt(dist2);
     const contact::ContactGeometry geo = contact::sphere_sphere_geometry(d, dist, ri, rj, mi, mj, vi, vj, wi, wj);
@@ -1098,11 +1109,15 @@ struct PairEntries : ContactArgs {
     if (halted(halt)) return;
     pair_pass(
         t,
-        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a) {
+        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a, std::uint32_t b) {
           const std::uint32_t m = rows.mirror[k];
           Vec3 fl, ta, tb;
           bool a_low = true;
-          const bool touching = pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
+          const bool touching =
+              b != kUnlisted
+                  ? pair_entry_from<Cohesion, Rolling, true>(EntryHead{b, 0u, rows.touching[k] != 0}, a, sid_a, k, fl,
+                                                             ta, a_low, &tb)
+                  : pair_entry<Cohesion, Rolling>(a, sid_a, k, fl, ta, a_low, &tb);
           rows.touching[m] = touching ? 1 : 0;
           if (touching) {
             rows.entry_force[k] = fl;
@@ -1176,9 +1191,16 @@ struct ScatterFlagged {
   const std::uint32_t* offset;
   std::uint32_t total, cap;
   std::uint32_t *list, *count, *missing;
+  /// With `also`: also[place] = also_from[index] for each listed index (the pair list: the
+  /// neighbour of each listed entry, rows.j).
+  const std::uint32_t* also_from = nullptr;
+  std::uint32_t* also = nullptr;
   BIODEM_HD void operator()(std::uint32_t k) const {
     const std::uint32_t f = flag(k), o = offset[k];
-    if (f && o < cap) list[o] = k;
+    if (f && o < cap) {
+      list[o] = k;
+      if (also) also[o] = also_from[k];
+    }
     if (k + 1 == total) {
       const std::uint32_t c = o + f;
       *count = c < cap ? c : cap;
@@ -1825,14 +1847,21 @@ struct PairEntriesFixed : ContactArgs {
     if (halted(halt)) return;
     pair_pass(
         t,
-        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a) {
-          const EntryHead e = entry_head(k);
+        [this](std::uint32_t k, std::uint32_t a, std::uint32_t sid_a, std::uint32_t b) {
           const std::uint32_t m = rows.mirror[k];
           Vec3 fl, ta, tb;
           bool a_low = true;
-          const bool touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
+          bool touching;
+          if (b != kUnlisted) {
+            touching = pair_entry_from<Cohesion, Rolling, true>(EntryHead{b, 0u, rows.touching[k] != 0}, a, sid_a, k,
+                                                                 fl, ta, a_low, &tb);
+          } else {
+            const EntryHead e = entry_head(k);
+            b = e.b;
+            touching = pair_entry_from<Cohesion, Rolling>(e, a, sid_a, k, fl, ta, a_low, &tb);
+          }
           rows.touching[m] = touching ? 1 : 0;
-          if (touching) fx.add_pair(a, e.b, fl, ta, tb);
+          if (touching) fx.add_pair(a, b, fl, ta, tb);
         },
         [this](std::uint32_t a, std::uint32_t w) {
           Vec3 fw, tw;
