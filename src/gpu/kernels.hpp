@@ -865,8 +865,8 @@ struct ContactArgs {
   } pair_list;
 
   /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a, b) for
-  /// the entry k of sphere a's row that is its pair's lower-id side, wall(a, w) for sphere a and
-  /// wall w; nothing for the other threads (a pair's higher-id side, entries past a row's end,
+  /// the entry k of sphere a's row that is its pair's lower-id side, wall(a, w, listed) for
+  /// sphere a and wall w (listed: from the wall-slot list); nothing for the other threads (a pair's higher-id side, entries past a row's end,
   /// listed slots past the count). b: the neighbour when the pair list gives it (then sid_a is
   /// not loaded: a is known to be the lower-id side), else kUnlisted. The threads of a pass:
   /// pass_threads.
@@ -882,15 +882,15 @@ struct ContactArgs {
         pair(k, k % n, 0u, b);
         return;
       }
-      const std::uint32_t u = t - pair_list.cap;
-      if (u >= *pair_list.wall_count) return;
-      const std::uint32_t slot = pair_list.wall_k[u];
-      wall(slot % n, slot / n);
+      // (the count and the slot in one round, as the pairs')
+      const std::uint32_t u = t - pair_list.cap, count = *pair_list.wall_count, slot = pair_list.wall_k[u];
+      if (u >= count) return;
+      wall(slot % n, slot / n, true);
       return;
     }
     const std::uint32_t a = t % n, q = t / n;
     if (q >= rows.cap) {
-      wall(a, q - rows.cap);
+      wall(a, q - rows.cap, false);
       return;
     }
     // (Loading the row's length, the sphere's stable id, the entry's head and its mirror in one
@@ -1051,8 +1051,11 @@ struct ContactArgs {
   }
 
   /// Sphere a's contact with wall w (slot w * n + a of the wall history): true when touching,
-  /// with the force and torque on a; false (history reset) otherwise.
-  template <bool Cohesion, bool Rolling>
+  /// with the force and torque on a; false (history reset) otherwise. Listed: the slot comes
+  /// from the wall-slot list (a sphere within reach of the wall, often touching it): the
+  /// history is loaded whatever the touching flag, in the round of the sphere's loads (the same
+  /// value for a new contact: nothing writes it in between).
+  template <bool Cohesion, bool Rolling, bool Listed = false>
   BIODEM_HD bool wall_entry(std::uint32_t a, std::uint32_t w, Vec3& force, Vec3& torque) const {
     // As pair_entry: the sphere's data, the slot's flag and a touching contact's history loaded
     // before the wall test; the arithmetic and its order unchanged.
@@ -1063,7 +1066,7 @@ struct ContactArgs {
     const Vec3 va = s.velocity[a], wa = s.omega[a];
     const std::uint32_t mat_a = s.material[a];
     contact::ContactHistory h{};
-    if (was_touching) h = wall_history[slot];
+    if (Listed || was_touching) h = wall_history[slot];
     const DeviceWall& ws = walls[w];
     const walls::WallHit hit = walls::wall_hit(ws.geometry, xa, ra);
     if (!hit.touching) {
@@ -1073,7 +1076,7 @@ struct ContactArgs {
       }
       return false;
     }
-    if (!was_touching) h = wall_history[slot];
+    if (!Listed && !was_touching) h = wall_history[slot];
     const Vec3 surface_point = xa - hit.gap_m * hit.normal;
     const Vec3 v_wall = walls::wall_velocity(ws.geometry, surface_point);
     const Vec3 w_wall = wall_rolling_lab ? Vec3{} : ws.geometry.angular_velocity_rad_s * ws.geometry.normal;
@@ -1126,9 +1129,9 @@ struct PairEntries : ContactArgs {
             rows.entry_torque[m] = tb;
           }
         },
-        [this](std::uint32_t a, std::uint32_t w) {
+        [this](std::uint32_t a, std::uint32_t w, bool listed) {
           Vec3 fw, tw;
-          if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
+          if (listed ? wall_entry<Cohesion, Rolling, true>(a, w, fw, tw) : wall_entry<Cohesion, Rolling>(a, w, fw, tw)) {
             rows.wall_force[w * n + a] = fw;
             rows.wall_torque[w * n + a] = tw;
           }
@@ -1863,9 +1866,10 @@ struct PairEntriesFixed : ContactArgs {
           rows.touching[m] = touching ? 1 : 0;
           if (touching) fx.add_pair(a, b, fl, ta, tb);
         },
-        [this](std::uint32_t a, std::uint32_t w) {
+        [this](std::uint32_t a, std::uint32_t w, bool listed) {
           Vec3 fw, tw;
-          if (wall_entry<Cohesion, Rolling>(a, w, fw, tw)) fx.add(a, fw, tw, true);
+          if (listed ? wall_entry<Cohesion, Rolling, true>(a, w, fw, tw) : wall_entry<Cohesion, Rolling>(a, w, fw, tw))
+            fx.add(a, fw, tw, true);
         });
   }
 };
