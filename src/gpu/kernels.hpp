@@ -1547,6 +1547,18 @@ struct ReduceKickDrift {
   }
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
+    if (centred) {
+      // Body k is sphere k at its centre (Engine::centred_spheres_): the sphere's force, torque
+      // and centre loaded with the body's state, in one round, instead of after the body's
+      // first sphere is known; body_sums' operations for one sphere.
+      const Vec3 fs = s.force[k], ts = s.torque[k], p = s.position[k];
+      const BodyState st = load_body(b, k);
+      Vec3 f = st.m * gravity, t{};
+      f += fs;
+      t += ts + cross(p - st.x, fs);
+      finish(k, st, f, t);
+      return;
+    }
     // Every load of the body's state before the first store (its force), so that none waits
     // behind a store it might alias; then the halves in registers and the state stored once.
     const BodyState st = load_body(b, k);
