@@ -688,9 +688,10 @@ class Engine final : public DeviceEngine {
   const Vec3* wall_list_positions_ = nullptr;  // (build_wall_list's: set by its callers)
   /// A list of the indices 0 .. total - 1 that `flag` marks, in index order (flag, exclusive
   /// scan, ScatterFlagged; no host wait), `expected` of them (the build's reduction), into
-  /// `list` of capacity `cap` (grown to expected plus an eighth when short: the graphs then
-  /// forgotten) with its count in `count`; `what` names the entries in the 32-bit error. With
-  /// `also`, also[place] = also_from[index] for each listed index (same capacity).
+  /// `list` of capacity `cap` (grown to expected plus an eighth when short, never shrunk: the
+  /// graphs then forgotten) with its count in `count`; `what` names the entries in the 32-bit
+  /// error. With `also`, also[place] = also_from[index] for each listed index (`also` kept at
+  /// the list's capacity: resized with it, or when its size differs).
   template <class Flag>
   void build_flag_list(const Flag& flag, std::uint32_t total, std::uint64_t expected, vec<std::uint32_t>& list,
                        vec<std::uint32_t>& offset, vec<std::uint32_t>& count, std::uint32_t& cap, const char* what,

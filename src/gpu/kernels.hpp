@@ -849,8 +849,9 @@ struct ContactArgs {
   const std::uint32_t* halt;
   /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
   /// (LowerSide, WallSlotNear, ScatterFlagged): the per-contact passes launch one thread per
-  /// listed entry (`cap` threads, those from `*count` on doing nothing) and per listed wall slot
-  /// (`wall_cap`, likewise), instead of one per row entry and wall slot. Off
+  /// listed entry (`cap` threads, those from `*count` on loading their slot, then doing nothing)
+  /// and per listed wall slot (`wall_cap`, likewise), instead of one per row entry and wall slot.
+  /// Off
   /// (BIODEM_GPU_PAIR_LIST=full): one per row entry and wall slot.
   struct PairList {
     const std::uint32_t* k = nullptr;
@@ -866,10 +867,10 @@ struct ContactArgs {
 
   /// Thread t of a per-contact pass (PairEntries, PairEntriesFixed): pair(k, a, sid_a, b) for
   /// the entry k of sphere a's row that is its pair's lower-id side, wall(a, w, listed) for
-  /// sphere a and wall w (listed: from the wall-slot list); nothing for the other threads (a pair's higher-id side, entries past a row's end,
-  /// listed slots past the count). b: the neighbour when the pair list gives it (then sid_a is
-  /// not loaded: a is known to be the lower-id side), else kUnlisted. The threads of a pass:
-  /// pass_threads.
+  /// sphere a and wall w (listed: from the wall-slot list); nothing for the other threads (a
+  /// pair's higher-id side, entries past a row's end, listed slots past the count). b: the
+  /// neighbour when the pair list gives it (then sid_a is not loaded: a is known to be the
+  /// lower-id side), else kUnlisted. The threads of a pass: pass_threads.
   static constexpr std::uint32_t kUnlisted = 0xffffffffu;
   template <class Pair, class Wall>
   BIODEM_HD void pair_pass(std::uint32_t t, const Pair& pair, const Wall& wall) const {
@@ -936,8 +937,8 @@ struct ContactArgs {
     // it together with their own first loads), then everything of the two spheres that the
     // contact may need, with the history of a contact that was touching (the usual case of a
     // touching pair), all before the cut-off test; the pair's parameters (a small table,
-    // cached) and a new contact's history after it. Loads only: the arithmetic and its order are
-    // unchanged.
+    // cached) and a new contact's history after it (Listed: the history with the spheres,
+    // whatever the flag). Loads only: the arithmetic and its order are unchanged.
     const std::uint32_t b = e.b;
     const bool was_touching = e.was_touching;
     if constexpr (Listed) a_low = true;
@@ -1057,8 +1058,9 @@ struct ContactArgs {
   /// value for a new contact: nothing writes it in between).
   template <bool Cohesion, bool Rolling, bool Listed = false>
   BIODEM_HD bool wall_entry(std::uint32_t a, std::uint32_t w, Vec3& force, Vec3& torque) const {
-    // As pair_entry: the sphere's data, the slot's flag and a touching contact's history loaded
-    // before the wall test; the arithmetic and its order unchanged.
+    // As pair_entry: the sphere's data, the slot's flag and a touching contact's history (Listed:
+    // the history whatever the flag) loaded before the wall test; the arithmetic and its order
+    // unchanged.
     const std::uint32_t slot = w * n + a;
     const bool was_touching = wall_touching[slot] != 0;
     const Vec3 xa = s.position[a];
