@@ -19,7 +19,8 @@
 # (BIODEM_GPU_FORCES=entries, =rows) and, when prepared
 # with --fmad, the -fmad=true build; (2) "check": scripts/gpu_check.sh on the carried build (GPU
 # tests, determinism, kill-and-resume, CPU agreement, wider rows, compute-sanitizer last);
-# (3) "sweep": bench/run_gpu_sweep.sh (ncu kernel durations, launch settings, skins);
+# (1b) "sass": bench/gpu_sass.sh (the step kernels' SASS and ncu's stall samples per instruction,
+# for sessions without a GPU to read; in lease.tgz); (3) "sweep": bench/run_gpu_sweep.sh (ncu kernel durations, launch settings, skins);
 # (4) "scaling": bench/run_scaling.sh, the CPU engine at 1-16 threads on the raw drum with a
 # shortened settle. Results in GPU_LEASE_OUT (default out/gpu_lease): report.md, the CSV files,
 # lease.log, and everything in lease.tgz.
@@ -27,7 +28,8 @@
 # Environment: GPU_LEASE_STEPS (default "bench check"), GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder
 # that gets only the report, the CSV files, the log and lease.tgz, for a lease that brings back
 # few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260), GPU_LEASE_BENCH_S and
-# GPU_LEASE_BENCH2_S (the first and each further bench, default 200 and 60), GPU_LEASE_SWEEP_S
+# GPU_LEASE_BENCH2_S (the first and each further bench, default 200 and 60), GPU_LEASE_SASS_S (200;
+# GPU_LEASE_SASS_NCU_S, 60, for each of its three ncu runs), GPU_LEASE_SWEEP_S
 # (200), GPU_LEASE_SWEEP_SETTINGS (run_gpu_sweep.sh's SWEEP_SETTINGS), GPU_LEASE_SCALING_S (120),
 # GPU_LEASE_CPU_THREADS (CPU engine threads beside the GPU bench; default all, empty: none),
 # GPU_LEASE_SOURCE_DIR (where the build was configured; default: devcarry/source_dir).
@@ -125,6 +127,11 @@ BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CP
 stamp "bench with the row-walk force kernel (BIODEM_GPU_FORCES=rows): status $?"
 fi
 
+if [ $smoke -eq 0 ] && want sass; then  # what the kernels are made of and where they wait, per instruction
+  stamp "1b. bench/gpu_sass.sh: SASS of the step kernels, ncu stall samples per instruction"
+  BIODEM=build-gpu/biodem OUT="$O/sass" SASS_NCU_S="${GPU_LEASE_SASS_NCU_S:-60}" timeout "${GPU_LEASE_SASS_S:-200}" bash bench/gpu_sass.sh > "$O/sass.txt" 2>&1
+  stamp "sass: status $? ($(grep -h '^SASS:\|^ncu' "$O/sass.txt" | tr '\n' ';'))"
+fi
 if want check; then
   stamp "2. scripts/gpu_check.sh"
   GPU_CHECK_BUILD=0 GPU_CHECK_BUILD_DIR=build-gpu GPU_CHECK_BENCH=0 GPU_CHECK_TIMEOUT=$check_tmo GPU_CHECK_OUT="$O/check" \
@@ -150,7 +157,7 @@ fi
 cp "$O/check/report.md" "$O/report.md" 2>/dev/null
 variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\|fixed\)$' | tr '\n' ' ')
 for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
-(cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
+(cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude '*.ncu-rep' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
   cp "$O"/report.md "$O"/lease.log "$O"/lease.tgz "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
