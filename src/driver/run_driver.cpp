@@ -193,6 +193,7 @@ RunSummary Runner::run() {
     fs::remove(opt_.out_dir + "/trace.csv");
     fs::remove(opt_.out_dir + "/responses.csv");
     fs::remove_all(opt_.out_dir + "/snapshots");
+    fs::remove_all(opt_.out_dir + "/bodies");
     fs::remove_all(opt_.out_dir + "/frames");
     // ... and so would an earlier `biodem analyze` of the folder: its tables and plots describe
     // the old series.csv.
@@ -202,6 +203,7 @@ RunSummary Runner::run() {
   }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
+  fs::create_directories(opt_.out_dir + "/bodies");
   if (cfg_.output.frame_every_s) fs::create_directories(opt_.out_dir + "/frames");
   {
     std::ifstream in(cfg_.source_path, std::ios::binary);

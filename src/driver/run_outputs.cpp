@@ -116,8 +116,9 @@ void Runner::snapshot() {
   cb.scalars = {{"speed", bspeed}, {"mass", b.mass_kg}};
   cb.ints = {{"body_id", id}, {"shape", shape}};
   cb.quats = {{"orientation", q}};
-  output::write_vtu(opt_.out_dir + "/snapshots/" + name, cb);
-  pvd_bodies_->add(sim_.time_s(), std::string("snapshots/") + name);
+  // (in a folder of their own: snapshots/ holds one file per snapshot, one point per sphere)
+  output::write_vtu(opt_.out_dir + "/bodies/" + name, cb);
+  pvd_bodies_->add(sim_.time_s(), std::string("bodies/") + name);
   ++snapshot_index_;
 }
 

@@ -38,10 +38,11 @@ TEST(CheckpointRestart, KilledRunResumesBitForBit) {
 
   EXPECT_EQ(slurp(a + "/series.csv"), slurp(b + "/series.csv"));
   EXPECT_EQ(slurp(a + "/trace.csv"), slurp(b + "/trace.csv"));
-  EXPECT_EQ(slurp(a + "/snapshots.pvd"), slurp(b + "/snapshots.pvd"));
-  for (const auto& e : fs::directory_iterator(a + "/snapshots"))
-    EXPECT_EQ(slurp(e.path().string()), slurp(b + "/snapshots/" + e.path().filename().string()))
-        << e.path().filename();
+  for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"}) EXPECT_EQ(slurp(a + pvd), slurp(b + pvd)) << pvd;
+  for (const char* dir : {"/snapshots/", "/bodies/"})
+    for (const auto& e : fs::directory_iterator(a + dir))
+      EXPECT_EQ(slurp(e.path().string()), slurp(b + dir + e.path().filename().string()))
+          << dir << e.path().filename();
 }
 
 TEST(CheckpointRestart, CorruptOrMissingCheckpointIsAClearError) {

@@ -51,7 +51,7 @@ TEST(RegionInsertion, PouredWavesFillABox) {
   // The final body snapshot, read with VTK: 300 bodies inside the box.
   const std::string py =
       "import vtk,sys,glob\n"
-      "f=sorted(glob.glob(sys.argv[1]+'/snapshots/bodies_*.vtu'))[-1]\n"
+      "f=sorted(glob.glob(sys.argv[1]+'/bodies/bodies_*.vtu'))[-1]\n"
       "r=vtk.vtkXMLUnstructuredGridReader(); r.SetFileName(f); r.Update(); p=r.GetOutput().GetPoints()\n"
       "x=[p.GetPoint(i) for i in range(p.GetNumberOfPoints())]\n"
       "print('n', len(x), 'xz', max(max(abs(q[0]),abs(q[2])) for q in x), 'y', min(q[1] for q in x), max(q[1] for q in x))\n";

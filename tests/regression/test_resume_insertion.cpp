@@ -75,13 +75,15 @@ void expect_same_outputs(const std::string& a, const std::string& b, const std::
     EXPECT_EQ(fs::exists(a + "/" + f), fs::exists(b + "/" + f)) << label << ": " << f;
     EXPECT_TRUE(slurp(a + "/" + f) == slurp(b + "/" + f)) << label << ": " << f << " differs";
   }
-  std::set<std::string> fa, fb;
-  for (const auto& e : fs::directory_iterator(a + "/snapshots")) fa.insert(e.path().filename().string());
-  for (const auto& e : fs::directory_iterator(b + "/snapshots")) fb.insert(e.path().filename().string());
-  EXPECT_EQ(fa, fb) << label << ": snapshot files";
-  EXPECT_GE(fa.size(), 4u) << label;
-  for (const auto& f : fa)
-    EXPECT_TRUE(slurp(a + "/snapshots/" + f) == slurp(b + "/snapshots/" + f)) << label << ": snapshots/" << f << " differs";
+  for (const std::string dir : {"snapshots", "bodies"}) {  // spheres, and bodies in a folder of their own
+    std::set<std::string> fa, fb;
+    for (const auto& e : fs::directory_iterator(a + "/" + dir)) fa.insert(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(b + "/" + dir)) fb.insert(e.path().filename().string());
+    EXPECT_EQ(fa, fb) << label << ": " << dir << " files";
+    EXPECT_GE(fa.size(), 2u) << label << ": " << dir;
+    for (const auto& f : fa)
+      EXPECT_TRUE(slurp(a + "/" + dir + "/" + f) == slurp(b + "/" + dir + "/" + f)) << label << ": " << dir << "/" << f << " differs";
+  }
 }
 
 /// Runs `case_file` uninterrupted into `<tag>_full`, then once per kill: stopped at the step,

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -15,6 +16,7 @@
 
 using namespace biodem;
 using namespace biodem::testing;
+namespace fs = std::filesystem;
 
 namespace {
 const std::string kCase = source_dir() + "/tests/cases/sink_tiny.toml";
@@ -58,17 +60,31 @@ TEST(Sink, RemovedBodyIsGoneFromEveryOutput) {
   EXPECT_EQ(n, 1);
   EXPECT_NEAR(mass / m1, 1.0, 1e-5);
 
+  // snapshots/ holds the sphere files only (SPEC 11: one file per snapshot, one point per sphere);
+  // the body files are in bodies/, one per snapshot as well.
+  std::size_t n_spheres = 0, n_bodies = 0;
+  for (const auto& e : fs::directory_iterator(d + "/snapshots")) {
+    EXPECT_EQ(e.path().filename().string().rfind("spheres_", 0), 0u) << e.path();
+    ++n_spheres;
+  }
+  for (const auto& e : fs::directory_iterator(d + "/bodies")) {
+    EXPECT_EQ(e.path().filename().string().rfind("bodies_", 0), 0u) << e.path();
+    ++n_bodies;
+  }
+  EXPECT_GE(n_spheres, 2u);
+  EXPECT_EQ(n_spheres, n_bodies);
+
   // Last snapshots (spheres and bodies): two points, body ids 0 and 2, read with VTK's reader.
   const std::string py =
       "import vtk,sys,glob\n"
-      "for pat in ('spheres_','bodies_'):\n"
-      "  f=sorted(glob.glob(sys.argv[1]+'/snapshots/'+pat+'*.vtu'))[-1]\n"
+      "for pat in ('snapshots/spheres_','bodies/bodies_'):\n"
+      "  f=sorted(glob.glob(sys.argv[1]+'/'+pat+'*.vtu'))[-1]\n"
       "  r=vtk.vtkXMLUnstructuredGridReader(); r.SetFileName(f); r.Update(); a=r.GetOutput().GetPointData().GetArray('body_id')\n"
       "  print(pat, sorted(int(a.GetTuple1(i)) for i in range(a.GetNumberOfTuples())))\n";
   const auto v = run_command(std::string(BIODEM_SYSTEM_PYTHON) + " -c \"" + py + "\" " + d);
   ASSERT_EQ(v.status, 0) << v.output;
-  EXPECT_NE(v.output.find("spheres_ [0, 2]"), std::string::npos) << v.output;
-  EXPECT_NE(v.output.find("bodies_ [0, 2]"), std::string::npos) << v.output;
+  EXPECT_NE(v.output.find("snapshots/spheres_ [0, 2]"), std::string::npos) << v.output;
+  EXPECT_NE(v.output.find("bodies/bodies_ [0, 2]"), std::string::npos) << v.output;
 }
 
 // In process: run to 0.06 s (after the removal), checkpoint, load into a fresh simulation of the
