@@ -26,8 +26,12 @@ Action register_run(CLI::App& app) {
       ->check(CLI::IsMember({"cpu", "gpu", "gpu-emulated"}));
   return [] {
     const case_file::LoadedCase loaded = case_file::load_case(case_path);
-    for (const auto& w : loaded.warnings) std::cerr << "warning: " << w << "\n";
     driver::RunOptions opt;
+    // The case's warnings once the run is sure to start: an input refused later (device, output
+    // folder, checkpoint) then prints its one-line error alone (SPEC 11).
+    opt.on_start = [&loaded] {
+      for (const auto& w : loaded.warnings) std::cerr << "warning: " << w << "\n";
+    };
     opt.out_dir = out_dir;
     opt.threads = threads;
     opt.resume = resume;

@@ -260,6 +260,7 @@ RunSummary Runner::run() {
     pvd_ = std::make_unique<output::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
     pvd_bodies_ = std::make_unique<output::PvdCollection>(opt_.out_dir + "/bodies.pvd");
   }
+  if (opt_.on_start) opt_.on_start();
   if (!opt_.resume || insertion_.active) {  // a fresh run, or one killed while inserting
     insert();
     finish_insertion();

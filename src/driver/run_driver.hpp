@@ -1,6 +1,7 @@
 // `biodem run`: insertion waves, phases (settle, rotate ...), sampling of the centroid-angle
 // series, snapshots, trace, run.log, progress. SPEC 5 and 11.
 #pragma once
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -16,6 +17,10 @@ struct RunOptions {
   bool progress_tty = false;
   bool profile = false;  // --profile: per-phase timers of the CPU step in run.log
   std::optional<config::Device> device;  // --device; absent: the case's [run] device (default cpu)
+  /// Called once every check has passed (case, device, output folder, checkpoint of a resume),
+  /// before the first computation: `biodem run` prints the case's warnings there, so that a run
+  /// refused on bad input prints its one-line error alone.
+  std::function<void()> on_start;
 };
 
 struct RunSummary {

@@ -3,6 +3,8 @@
 // count); damaged or missing checkpoints give a clear error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -62,6 +64,29 @@ TEST(CheckpointRestart, CorruptOrMissingCheckpointIsAClearError) {
   EXPECT_NE(r2.status, 0);
   EXPECT_NE(r2.output.find("checksum"), std::string::npos) << r2.output;
   EXPECT_EQ(r2.output.find("internal error"), std::string::npos) << r2.output;
+}
+
+// An input refused after the case is read (here a resume with no checkpoint, or an output path
+// that is a file) prints its one-line error alone, without the case's warnings before it (SPEC 11:
+// "non-zero with a one-line message"); a run that starts still prints them. The case warns that
+// its dt is 24.7 % of the Rayleigh time.
+TEST(CheckpointRestart, RefusedRunPrintsItsErrorAloneAndAStartedRunItsWarnings) {
+  const std::string d = fresh_dir("ckpt_error_alone");
+  const auto one_line_error = [](const CommandResult& r) {
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_EQ(r.output.rfind("biodem: error: ", 0), 0u) << r.output;
+  };
+  one_line_error(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --resume"));
+  fs::create_directories(d);
+  { std::ofstream(d + "/a_file") << "x"; }
+  ASSERT_TRUE(fs::is_regular_file(d + "/a_file"));
+  one_line_error(run_command(biodem_exe() + " run " + kCase + " --out " + d + "/a_file --threads 1"));
+  const auto check = run_command(biodem_exe() + " check " + kCase);
+  EXPECT_NE(check.output.find("warning: "), std::string::npos) << "the case no longer warns: " << check.output;
+  const auto started = run_command(biodem_exe() + " run " + kCase + " --out " + d + "/run --threads 1");
+  ASSERT_EQ(started.status, 0) << started.output;
+  EXPECT_NE(started.output.find("warning: "), std::string::npos) << started.output;
 }
 
 // A fresh run into a folder that an earlier run and `biodem analyze` filled leaves none of the
