@@ -1,5 +1,6 @@
 #include "case_file/toml_reader.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <sstream>
 
@@ -44,7 +45,13 @@ std::string join(const std::vector<std::string_view>& v) {
 std::string show(const toml::node& n) {
   if (auto s = n.as_string()) return "\"" + s->get() + "\"";
   if (auto i = n.as_integer()) return std::to_string(i->get());
-  if (auto f = n.as_floating_point()) return num(f->get(), 17 - 2);
+  if (auto f = n.as_floating_point()) {
+    // A real that prints like an integer keeps a decimal point ("count = 350.0: must be an
+    // integer", not "count = 350"), as TOML tells the two apart.
+    std::string s = num(f->get(), 17 - 2);
+    if (std::isfinite(f->get()) && s.find_first_of(".eE") == std::string::npos) s += ".0";
+    return s;
+  }
   if (auto b = n.as_boolean()) return b->get() ? "true" : "false";
   if (auto a = n.as_array()) {
     std::string s = "[";

@@ -119,7 +119,7 @@ class Reader {
     const std::string need = min == 0   ? "must be a non-negative integer"
                              : min == 1 ? "must be a positive integer"
                                         : "must be an integer >= " + std::to_string(min);
-    if (n->is_floating_point()) fail(key, "must be an integer");
+    if (n->is_floating_point()) fail(key, "must be an integer, written without a decimal point or exponent");
     auto i = n->as_integer();
     if (!i) fail(key, "must be an integer, not " + type_name(*n));
     if (i->get() < 0 || static_cast<std::uint64_t>(i->get()) < min) fail(key, need);

@@ -351,8 +351,10 @@ TEST(CaseParser, WrongTypeIsNamed) {
 TEST(CaseParser, IntegerKeyRejectsReal) {
   EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = 350.5"), "[insertion].count = 350.5",
                      "must be an integer");
-  EXPECT_ERROR_NAMES(edit(kSpecExample, "seed = 1", "seed = 2.0"), "[run].seed", "integer");
-  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 1e4"), ".steps", "integer");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "seed = 1", "seed = 2.0"), "[run].seed = 2.0", "integer");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "count = 19791", "count = 350.0"), "[insertion].count = 350.0",
+                     "must be an integer");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 1e4"), ".steps = 10000.0", "integer");
 }
 
 TEST(CaseParser, IntegerKeyRejectsNegative) {
