@@ -99,7 +99,11 @@ class Campaign {
       log_ << "population " << c_.population << ", generations " << c_.generations << ", seed " << c_.seed;
     else
       log_ << "evaluating the " << given.size() << " parameter vectors of " << o_.evaluate_csv << " (--evaluate, no search)";
-    log_ << ", jobs " << o_.jobs << "; " << cache.size() << " evaluations cached\n";
+    if (mpi_ && mpi_->size() > 1)  // the test runs go to the ranks (--jobs is not used then)
+      log_ << ", MPI ranks " << mpi_->size() << " (" << mpi_->size() - 1 << " running tests)";
+    else
+      log_ << ", jobs " << o_.jobs;
+    log_ << "; " << cache.size() << " evaluations cached\n";
     log_.flush();
     {
       std::ofstream f(cache_csv, std::ios::app);

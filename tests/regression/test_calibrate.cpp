@@ -90,6 +90,9 @@ TEST(Calibrate, JobsAndResumeDoNotChangeTheResult) {
   ASSERT_EQ(rm.status, 0) << rm.output;
   EXPECT_NE(slurp(m + "/campaign.log").find("heap: WARNING: the fill stands "), std::string::npos)
       << "the ranks pass the runs' warnings on";
+  EXPECT_NE(slurp(m + "/campaign.log").find(", MPI ranks 3 (2 running tests);"), std::string::npos)
+      << slurp(m + "/campaign.log");
+  EXPECT_NE(text.find(", jobs 2;"), std::string::npos) << text;
   EXPECT_EQ(without_wall(a + "/evaluations.csv"), without_wall(m + "/evaluations.csv"));
   EXPECT_EQ(without_wall(a + "/pareto.csv"), without_wall(m + "/pareto.csv"));
 #endif
