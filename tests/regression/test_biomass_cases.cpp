@@ -325,6 +325,16 @@ void run_quick(const QuickCase& q) {
     EXPECT_LT(zmax, width);
   }
   EXPECT_EQ(last_ids.size(), q.count);
+
+  // VTK's own reader takes every sphere snapshot (snapshots/) and every body snapshot (bodies/),
+  // with their SPEC 11 fields and point counts (run.log: "bodies: N, spheres: M").
+  const auto at = log.find("bodies: " + std::to_string(q.count) + ", spheres: ");
+  ASSERT_NE(at, std::string::npos) << log;
+  const long spheres = std::stol(log.substr(log.find("spheres: ", at) + 9));
+  EXPECT_GT(spheres, static_cast<long>(q.count));
+  const auto v = run_command(std::string(BIODEM_SYSTEM_PYTHON) + " " + source_dir() + "/tests/scripts/check_vtk.py " +
+                             out + " " + std::to_string(spheres) + " " + std::to_string(q.count));
+  EXPECT_EQ(v.status, 0) << v.output;
 }
 
 }  // namespace
