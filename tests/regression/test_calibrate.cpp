@@ -8,7 +8,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
+#include <utility>
 
 #include "calib/calib_file.hpp"
 #include "test_util.hpp"
@@ -272,4 +274,45 @@ TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
       << bad.output;
   EXPECT_EQ(std::count(bad.output.begin(), bad.output.end(), '\n'), 1) << bad.output;
   EXPECT_FALSE(fs::exists(d + "/bad/runs"));
+}
+
+// A drum test on the GPU engine: the device comes from the test's case (`[run] device`), every
+// run of the campaign goes to it, and runs made at once (--jobs 2) give the evaluations of runs
+// made one by one. Here the GPU engine's kernels on CPU threads ("gpu-emulated"; on a GPU
+// machine the same file with "gpu"); the quick drum shortened to 0.3 revolution (~5 s a run).
+TEST(Calibrate, DrumTestOnTheGpuEngineGivesTheSameEvaluationsWithJobs) {
+  const std::string d = fresh_dir("calib_drum_gpu");
+  fs::create_directories(d);
+  const std::string quick = source_dir() + "/cases/calibration/quick/";
+  {
+    std::ifstream in(quick + "drum.toml");
+    std::string drum((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string rev = "revolutions = 0.8";
+    ASSERT_NE(drum.find(rev), std::string::npos);
+    drum.replace(drum.find(rev), rev.size(), "revolutions = 0.3");
+    std::ofstream(d + "/drum_gpu.toml") << "[run]\ndt_s = 2.5e-5\nseed = 3\ndevice = \"gpu-emulated\"\n\n" << drum;
+    std::ifstream cin(quick + "drum_narrow.toml");
+    std::string calib((std::istreambuf_iterator<char>(cin)), std::istreambuf_iterator<char>());
+    for (const auto& [from, to] : {std::pair<std::string, std::string>{"case = \"drum.toml\"", "case = \"drum_gpu.toml\""},
+                                   {"base = \"base.toml\"", "base = \"" + quick + "base.toml\""}}) {
+      ASSERT_NE(calib.find(from), std::string::npos) << from;
+      calib.replace(calib.find(from), from.size(), to);
+    }
+    std::ofstream(d + "/narrow_gpu.toml") << calib;
+    std::ofstream(d + "/points.csv") << "mu_s,mu_r,ced_j_m3\n0.777,0.319,11547.8\n0.900,0.827,9303.5\n";
+  }
+  for (const int jobs : {1, 2}) {
+    const auto r = run_command(biodem_exe() + " calibrate " + d + "/narrow_gpu.toml --out " + d + "/j" +
+                               std::to_string(jobs) + " --jobs " + std::to_string(jobs) + " --evaluate " + d + "/points.csv");
+    ASSERT_EQ(r.status, 0) << r.output;
+  }
+  for (const char* e : {"e0", "e1"}) {
+    const std::string log = slurp(d + "/j2/runs/evaluate/" + e + "/drum/out/run.log");
+    EXPECT_NE(log.find("engine: GPU engine on CPU threads"), std::string::npos) << log;
+  }
+  const auto ev = read_csv(d + "/j2/evaluations.csv");
+  ASSERT_EQ(ev.at("uas_deg_p50").size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) EXPECT_GT(std::stod(ev.at("uas_deg_p50")[k]), 90.0) << k;
+  EXPECT_EQ(without_wall(d + "/j1/evaluations.csv"), without_wall(d + "/j2/evaluations.csv"));
+  EXPECT_EQ(without_wall(d + "/j1/pareto.csv"), without_wall(d + "/j2/pareto.csv"));
 }
