@@ -46,6 +46,8 @@ const std::map<std::string, std::string> kUnit = {
     {"bulk_density_kg_m3", "kg/m3"}, {"solid_fraction", "-"},      {"core_solid_fraction", "-"},
     {"retainment_ratio", "-"},
 };
+// The most seeds of one [[test]] (a mean over more runs than this is a campaign of its own).
+constexpr std::size_t kMostSeeds = 64;
 const std::vector<std::string> kPairKeys = {"restitution", "sliding_friction", "rolling_friction",
                                             "cohesion_energy_density_j_m3"};
 
@@ -148,7 +150,7 @@ class CalibParser {
     std::set<std::string> names;
     for (std::size_t i = 0; i < list.size(); ++i) {
       const std::string w = "[[test]] #" + std::to_string(i + 1);
-      only(*list[i], w, {"name", "case", "base", "min_drop_deg", "skip_s", "skip_rev"});
+      only(*list[i], w, {"name", "case", "base", "min_drop_deg", "skip_s", "skip_rev", "seeds"});
       CalibTest t;
       t.name = str(*list[i], w, "name");
       if (t.name.empty() || t.name.find_first_of("/ \\") != std::string::npos)
@@ -197,6 +199,20 @@ class CalibParser {
           if (list[i]->contains(key))
             fail(w + "." + key + ": an analysis option of drum tests; case " + t.case_path +
                  " is not a drum test (it needs a [drum] and no [heap], [bulk_density] or [shear_box])");
+      }
+      if (list[i]->contains("seeds")) {  // one run per seed, the responses their mean
+        const auto* a = list[i]->get("seeds")->as_array();
+        if (!a || a->empty() || a->size() > kMostSeeds)
+          fail(w + ".seeds: an array of 1 to " + std::to_string(kMostSeeds) + " seeds (integers), e.g. [1, 2, 3]");
+        for (const auto& e : *a) {
+          const auto* n = e.as_integer();
+          if (!n || n->get() < 0)
+            fail(w + ".seeds: each seed must be a non-negative integer (written without a decimal point)");
+          const auto s = static_cast<std::uint64_t>(n->get());
+          if (std::find(t.seeds.begin(), t.seeds.end(), s) != t.seeds.end())
+            fail(w + ".seeds: seed " + std::to_string(s) + " given twice");
+          t.seeds.push_back(s);
+        }
       }
       std::ostringstream os;
       os << tc;
@@ -368,6 +384,17 @@ class CalibParser {
 CalibConfig load_calib(const std::string& path) {
   if (!fs::exists(path)) throw Error(path + ": no such file");
   return CalibParser(path).parse();
+}
+
+std::string with_seed(const std::string& case_text, std::uint64_t seed) {
+  toml::table t = toml::parse(case_text);
+  if (!t.contains("run")) t.insert("run", toml::table{});
+  auto* run = t.get_as<toml::table>("run");
+  if (!run) throw Error("[run] is not a table: the seed cannot be set");
+  run->insert_or_assign("seed", static_cast<std::int64_t>(seed));
+  std::ostringstream os;
+  os << t;
+  return os.str();
 }
 
 std::string apply_parameters(const CalibConfig& c, const CalibTest& test, const std::vector<double>& x) {

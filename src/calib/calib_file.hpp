@@ -19,6 +19,10 @@ struct CalibTest {
   /// Set for a drum test (a case with [drum] and no bulk-test block; calib/drum_test.hpp): its
   /// responses come from the flowability analysis of its series, with these options.
   std::optional<DrumAnalysis> drum;
+  /// `seeds = [s1, s2, ...]`: the test is run once per seed (its case's [run].seed set to it, in
+  /// DIR/runs/.../<name>_seed<s>), and each of its responses is the mean over the runs (a response
+  /// that one run lacks is missing). Empty: one run with the case's own seed, in .../<name>.
+  std::vector<std::uint64_t> seeds;
 };
 
 struct CalibTarget {
@@ -56,6 +60,9 @@ CalibConfig load_calib(const std::string& path);
 
 /// The case text of `test` with every parameter's keys set to value x[k] x factor.
 std::string apply_parameters(const CalibConfig& c, const CalibTest& test, const std::vector<double>& x);
+
+/// The case text with its [run].seed set to `seed` (a [[test]]'s seeds).
+std::string with_seed(const std::string& case_text, std::uint64_t seed);
 
 /// The target of a response (throws if none).
 const CalibTarget& target_of(const CalibConfig& c, const std::string& response);

@@ -32,7 +32,14 @@ namespace fs = std::filesystem;
 std::string campaign_id(const CalibConfig& c, bool evaluate) {
   std::ostringstream t;
   t.precision(17);
-  for (const auto& test : c.tests) t << "test " << test.name << '\n' << test.case_text << '\n' << encode_drum_line(test.drum) << '\n';
+  for (const auto& test : c.tests) {
+    t << "test " << test.name << '\n' << test.case_text << '\n' << encode_drum_line(test.drum) << '\n';
+    if (!test.seeds.empty()) {  // (only then: the folders of files without seeds keep their id)
+      t << "seeds";
+      for (const auto s : test.seeds) t << ' ' << s;
+      t << '\n';
+    }
+  }
   for (const auto& g : c.targets) t << "target " << g.response << ' ' << g.value << ' ' << g.unit << '\n';
   for (const auto* o : {&c.o1, &c.o2}) {
     t << "objective";
@@ -161,22 +168,31 @@ class Campaign {
   }
 
  private:
-  // Every (evaluation, test) of the batch is one job; the jobs run on threads or MPI ranks, then
-  // each evaluation is scored from its tests' responses (in test order).
+  // Every (evaluation, test, seed) of the batch is one job (one seed: the case's own, unless the
+  // [[test]] gives seeds); the jobs run on threads or MPI ranks, then each evaluation is scored
+  // from its tests' responses (in test order; a test's responses are the means over its seeds).
   void evaluate(std::vector<Evaluation>& batch) {
     const auto names = response_names(c_);
     std::vector<TestJob> jobs;
+    std::vector<std::size_t> seed_of;  // the job's position in its test's seeds (0 without seeds)
     for (std::size_t e = 0; e < batch.size(); ++e)
       for (std::size_t t = 0; t < c_.tests.size(); ++t) {
-        TestJob j;
-        j.evaluation = e;
-        j.test = t;
-        j.dir = o_.out_dir + (o_.evaluate_csv.empty() ? "/runs/g" + std::to_string(batch[e].generation) : std::string("/runs/evaluate")) +
-                "/e" + std::to_string(batch[e].index) + "/" + c_.tests[t].name;
-        j.case_text = apply_parameters(c_, c_.tests[t], batch[e].x);
-        j.drum = c_.tests[t].drum;
-        j.x = batch[e].x;
-        jobs.push_back(std::move(j));
+        const CalibTest& test = c_.tests[t];
+        const std::string text = apply_parameters(c_, test, batch[e].x);
+        const std::string dir = o_.out_dir +
+                                (o_.evaluate_csv.empty() ? "/runs/g" + std::to_string(batch[e].generation) : std::string("/runs/evaluate")) +
+                                "/e" + std::to_string(batch[e].index) + "/" + test.name;
+        for (std::size_t s = 0; s < std::max<std::size_t>(1, test.seeds.size()); ++s) {
+          TestJob j;
+          j.evaluation = e;
+          j.test = t;
+          j.dir = test.seeds.empty() ? dir : dir + "_seed" + std::to_string(test.seeds[s]);
+          j.case_text = test.seeds.empty() ? text : with_seed(text, test.seeds[s]);
+          j.drum = test.drum;
+          j.x = batch[e].x;
+          jobs.push_back(std::move(j));
+          seed_of.push_back(s);
+        }
       }
     const std::vector<TestRun> runs = mpi_ && mpi_->size() > 1 ? mpi_->run(jobs) : run_on_threads(jobs, o_.jobs, o_.runner);
     // Stopped by a signal (the campaign's, or a test run's own): nothing of this batch is scored.
@@ -200,10 +216,22 @@ class Campaign {
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());
+    // A test with seeds: each response's values over its runs (seed order), then their mean.
+    std::map<std::pair<std::size_t, std::size_t>, std::map<std::string, std::vector<double>>> per_seed;
     for (std::size_t q = 0; q < jobs.size(); ++q) {
       const TestJob& j = jobs[q];
       const TestRun& r = runs[q];
-      for (const auto& [k, v] : r.responses) responses[j.evaluation][k] = v;
+      const std::size_t n_seeds = c_.tests[j.test].seeds.size();
+      if (n_seeds == 0) {
+        for (const auto& [k, v] : r.responses) responses[j.evaluation][k] = v;
+      } else {
+        auto& values = per_seed[{j.evaluation, j.test}];
+        for (const auto& [k, v] : r.responses) {
+          auto& vs = values[k];
+          vs.resize(n_seeds, NAN);
+          vs[seed_of[q]] = v;
+        }
+      }
       wall[j.evaluation] += r.wall_s;
       if (r.rc != 0) errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (see " + j.dir + "/stdout.txt)";
       // What the responses may not mean: the run's warnings, and a heap that was not found (its
@@ -219,6 +247,41 @@ class Campaign {
         log_ << who << "no heap found (heap_found = 0): angle_of_repose_deg = 0 is scored\n";
         ++no_heap_runs_;
       }
+    }
+    for (const auto& [et, values] : per_seed) {
+      const auto& [e, t] = et;
+      const CalibTest& test = c_.tests[t];
+      const std::size_t n = test.seeds.size();
+      for (const auto& [k, vs] : values) {
+        // The mean over every seed's run; a run that lacks the response (NaN in its place, or a
+        // failed run's missing value) leaves it missing, so an objective that needs it fails.
+        double sum = 0.0;
+        for (const double v : vs) sum += v;
+        responses[e][k] = vs.size() == n ? sum / static_cast<double>(n) : NAN;
+      }
+      // The targets' responses seed by seed, with their mean and sample standard deviation: how
+      // much of an objective is the seed's.
+      std::ostringstream line;
+      line.precision(6);
+      line << "evaluation g" << batch[e].generation << " e" << batch[e].index << " " << test.name << ", seeds";
+      for (const auto s : test.seeds) line << ' ' << s;
+      line << ':';
+      bool any = false;
+      for (const auto& g : c_.targets) {
+        const auto it = values.find(g.response);
+        if (it == values.end()) continue;
+        const std::vector<double>& vs = it->second;
+        const double mean = responses[e][g.response];
+        double ss = 0.0;
+        for (const double v : vs) ss += (v - mean) * (v - mean);
+        line << (any ? "; " : " ") << g.response;
+        for (const double v : vs) line << ' ' << v;
+        line << " (mean " << mean;
+        if (n > 1) line << ", sd " << std::sqrt(ss / static_cast<double>(n - 1));
+        line << ')';
+        any = true;
+      }
+      if (any) log_ << line.str() << '\n';
     }
     for (std::size_t e = 0; e < batch.size(); ++e) {
       auto& ev = batch[e];

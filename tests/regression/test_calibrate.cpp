@@ -276,6 +276,44 @@ TEST(Calibrate, DrumTestEvaluatesTheRowsOfAParetoFile) {
   EXPECT_FALSE(fs::exists(d + "/bad/runs"));
 }
 
+// [[test]] seeds with the real runs: the micro heap at one parameter vector, seeds 1 and 2, each
+// run in its own folder with its seed in its case, and the evaluation's angle the mean of the two
+// runs' responses.csv values.
+TEST(Calibrate, SeedsAverageTheRunsOfATest) {
+  const std::string d = fresh_dir("calib_seeds");
+  fs::create_directories(d);
+  const std::string micro = source_dir() + "/tests/cases/calib_micro/";
+  std::string calib = slurp(micro + "campaign.toml");
+  const std::string heap = "name = \"heap\"\ncase = \"heap.toml\"\nbase = \"base.toml\"\n";
+  ASSERT_NE(calib.find(heap), std::string::npos);
+  calib.replace(calib.find(heap), heap.size(),
+                "name = \"heap\"\ncase = \"" + micro + "heap.toml\"\nbase = \"" + micro + "base.toml\"\nseeds = [1, 2]\n");
+  const std::string box = "case = \"shear_box.toml\"\nbase = \"base.toml\"";
+  ASSERT_NE(calib.find(box), std::string::npos);
+  calib.replace(calib.find(box), box.size(), "case = \"" + micro + "shear_box.toml\"\nbase = \"" + micro + "base.toml\"");
+  std::ofstream(d + "/campaign.toml") << calib;
+  std::ofstream(d + "/point.csv") << "mu_s,mu_r,ced_j_m3\n0.7,0.5,40000\n";
+  const auto r = run_command(biodem_exe() + " calibrate " + d + "/campaign.toml --out " + d + "/out --jobs 2 --evaluate " +
+                             d + "/point.csv");
+  ASSERT_EQ(r.status, 0) << r.output;
+  double sum = 0.0;
+  for (const int seed : {1, 2}) {
+    const std::string run = d + "/out/runs/evaluate/e0/heap_seed" + std::to_string(seed);
+    EXPECT_NE(slurp(run + "/case.toml").find("\nseed = " + std::to_string(seed) + "\n"), std::string::npos);
+    const auto resp = read_csv(run + "/out/responses.csv");
+    const auto& names = resp.at("response");
+    const auto at = std::find(names.begin(), names.end(), "angle_of_repose_deg");
+    ASSERT_NE(at, names.end());
+    sum += std::stod(resp.at("value")[static_cast<std::size_t>(at - names.begin())]);
+  }
+  EXPECT_FALSE(fs::exists(d + "/out/runs/evaluate/e0/heap"));
+  EXPECT_TRUE(fs::exists(d + "/out/runs/evaluate/e0/shear_box/out/responses.csv"));
+  const auto ev = read_csv(d + "/out/evaluations.csv");
+  ASSERT_EQ(ev.at("angle_of_repose_deg").size(), 1u);
+  EXPECT_NEAR(std::stod(ev.at("angle_of_repose_deg")[0]), sum / 2.0, 1e-9 * std::abs(sum)) << sum;
+  EXPECT_NE(slurp(d + "/out/campaign.log").find("evaluation g0 e0 heap, seeds 1 2: angle_of_repose_deg "), std::string::npos);
+}
+
 // A drum test on the GPU engine: the device comes from the test's case (`[run] device`), every
 // run of the campaign goes to it, and runs made at once (--jobs 2) give the evaluations of runs
 // made one by one. Here the GPU engine's kernels on CPU threads ("gpu-emulated"; on a GPU

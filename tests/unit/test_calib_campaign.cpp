@@ -11,6 +11,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <thread>
 
 #include "calib/calib_file.hpp"
@@ -219,6 +221,66 @@ TEST(CalibCampaign, FilesDoNotDependOnJobsAndResumeReusesTheCache) {
   EXPECT_DOUBLE_EQ(one[0].responses[0], 10.0 + 30.0 * 0.5 + 10.0 * 0.5);
   EXPECT_EQ(one[0].generation, 0u);
   EXPECT_EQ(one[0].index, 0u);
+}
+
+// [[test]] seeds: the heap of each evaluation runs once per seed (its case's [run].seed set, in
+// its own folder), and its response is the mean over the seeds; a seed whose run lacks it leaves
+// the evaluation without it (scored 1e9); campaign.log gives the values seed by seed; a resume
+// with other seeds is refused. The model's heap angle is its usual function plus the run's seed.
+TEST(CalibCampaign, SeedsRunATestOncePerSeedAndScoreTheirMean) {
+  auto c = micro();
+  c.tests[0].seeds = {3, 7};
+  const std::string d = fresh_dir("calib_model_seeds");
+  std::mutex m;
+  std::set<std::string> dirs;
+  calib::CampaignOptions o;
+  o.out_dir = d;
+  o.jobs = 2;
+  o.runner = [&](const calib::TestJob& j) {
+    {
+      std::lock_guard<std::mutex> lock(m);
+      dirs.insert(j.dir.substr(j.dir.rfind('/') + 1));
+    }
+    calib::TestRun r = model(j, nullptr);
+    if (j.test == 0) {
+      // (the only "seed" key of a case is [run]'s; toml++ writes it "seed = N")
+      const auto at = j.case_text.find("\nseed = ");
+      EXPECT_NE(at, std::string::npos) << j.case_text;
+      const long seed = at == std::string::npos ? 1000 : std::stol(j.case_text.substr(at + 8));
+      r.responses["angle_of_repose_deg"] += static_cast<double>(seed);
+      if (j.evaluation == 2 && seed == 7) r.responses.erase("angle_of_repose_deg");  // a run that measured nothing
+    }
+    return r;
+  };
+  calib::run_campaign(c, o);
+  EXPECT_EQ(dirs, (std::set<std::string>{"heap_seed3", "heap_seed7", "shear_box"}));
+  const auto rows = calib::read_evaluations(d + "/evaluations.csv", 3, 2);
+  ASSERT_EQ(rows.size(), 16u);
+  for (const auto& e : rows) {
+    if (e.generation == 0 && e.index == 2) {  // (generation 1 may ask for it again: from the cache)
+      EXPECT_TRUE(std::isnan(e.responses[0]));
+      EXPECT_EQ(e.o1, 1e9);
+      continue;
+    }
+    if (std::isnan(e.responses[0])) continue;  // that vector again, from the cache
+    EXPECT_DOUBLE_EQ(e.responses[0], 10.0 + 30.0 * e.x[0] + 10.0 * e.x[1] + 5.0);  // mean of +3 and +7
+    EXPECT_DOUBLE_EQ(e.o1, std::abs(e.responses[0] - 25.0) / 25.0);
+  }
+  const std::string log = slurp(d + "/campaign.log");
+  EXPECT_NE(log.find("evaluation g0 e0 heap, seeds 3 7: angle_of_repose_deg "), std::string::npos) << log;
+  EXPECT_NE(log.find(", sd 2.82843)"), std::string::npos) << log;  // sqrt(((3-5)^2 + (7-5)^2) / 1)
+  EXPECT_NE(log.find("evaluation g0 e2: no value of angle_of_repose_deg - scored as o1 = o2 = 1e9"), std::string::npos)
+      << log;
+  // The seeds are part of what the folder was made by: a resume with others is refused.
+  auto other = c;
+  other.tests[0].seeds = {3, 8};
+  o.resume = true;
+  try {
+    calib::run_campaign(other, o);
+    ADD_FAILURE() << "a resume with other seeds was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("holds a campaign of another CALIB file"), std::string::npos) << e.what();
+  }
 }
 
 TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {

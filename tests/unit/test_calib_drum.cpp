@@ -3,6 +3,8 @@
 // test is checked before anything runs, and `calibrate --evaluate FILE` reads its vectors with
 // a one-line error naming the file, line and column.
 #include <gtest/gtest.h>
+#include <vector>
+#include <tuple>
 
 #include <cmath>
 #include <filesystem>
@@ -217,6 +219,27 @@ TEST(CalibDrum, CalibFileWithADrumTest) {
   heap_uas.replace(heap_uas.find(aor_target), aor_target.size(), "response = \"uas_deg_p50\"\nvalue = 150.0\nunit = \"deg\"");
   EXPECT_NE(load_error(calib_dir("nouas", kDrumCase, heap_uas)).find("\"uas_deg_p50\": no [[test]] case measures it"),
             std::string::npos);
+}
+
+TEST(CalibDrum, SeedsOfATestAndTheirErrors) {
+  // `seeds`: one run per seed, in the order given; what is refused names the key.
+  const auto c = calib::load_calib(calib_dir("seeds", kDrumCase, drum_calib("seeds = [4, 1, 9]", kDrumTargets)));
+  ASSERT_EQ(c.tests.size(), 1u);
+  EXPECT_EQ(c.tests[0].seeds, (std::vector<std::uint64_t>{4, 1, 9}));
+  EXPECT_TRUE(calib::load_calib(calib_dir("noseeds", kDrumCase, drum_calib("", kDrumTargets))).tests[0].seeds.empty());
+  for (const auto& [tag, extra, message] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"empty", "seeds = []", "[[test]] #1.seeds: an array of 1 to 64 seeds"},
+           {"scalar", "seeds = 3", "[[test]] #1.seeds: an array of 1 to 64 seeds"},
+           {"real", "seeds = [1, 2.0]", "[[test]] #1.seeds: each seed must be a non-negative integer"},
+           {"negative", "seeds = [-1]", "[[test]] #1.seeds: each seed must be a non-negative integer"},
+           {"twice", "seeds = [5, 6, 5]", "[[test]] #1.seeds: seed 5 given twice"}})
+    EXPECT_NE(load_error(calib_dir("seeds_" + tag, kDrumCase, drum_calib(extra, kDrumTargets))).find(message),
+              std::string::npos)
+        << tag << ": " << load_error(calib_dir("seeds_" + tag, kDrumCase, drum_calib(extra, kDrumTargets)));
+  // The case text of a seed: [run].seed set, added where the case has no [run].
+  const std::string seeded = calib::with_seed(c.tests[0].case_text, 77);
+  EXPECT_NE(seeded.find("seed = 77"), std::string::npos) << seeded;
+  EXPECT_NE(calib::with_seed("[insertion]\ncount = 5\n", 3).find("seed = 3"), std::string::npos);
 }
 
 TEST(CalibDrum, EvaluateFileRowsAndItsErrors) {
