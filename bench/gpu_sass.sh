@@ -7,15 +7,18 @@
 #      memory (LDL/STL) and how long each path is;
 #   2. Nsight Compute's source counters (warp stall samples per SASS instruction, with the stall
 #      reasons, and the instructions executed) of two launches of the step kernels in the timed
-#      rotation phase: the raw drum (the row walk in one thread per sphere and the clumps' body
-#      kernel, ReduceKickDrift; then the same with the order-free family), and glass_small with
-#      the entry kernels (PairEntries, SumEntriesKickDrift). One CSV per run (ncu --page source),
-#      gzipped, and the report file.
+#      rotation phase: the raw drum with the row walk in one thread per sphere and the clumps'
+#      body kernel (Forces, ReduceKickDrift), glass_small with the entry kernels (PairEntries,
+#      SumEntriesKickDrift), and the raw drum in the order-free family with its entry kernels
+#      (PairEntriesFixed, ReduceKickDriftFixed). One CSV per run (ncu --page source), gzipped,
+#      and the report file. ncu writes its report when the program ends: a run cut by its time
+#      limit leaves nothing, so the limit is generous (the same runs took about 20 s each with
+#      ncu's sections on 2026-11-26).
 #
 #   bash bench/gpu_sass.sh     Environment: BIODEM (default build/biodem), OUT (default
 #                              /tmp/biodem-gpu-sass), SASS_KERNELS (a Python regular expression on
 #                              the demangled names; default the step kernels), SASS_NCU (0: no
-#                              ncu), SASS_NCU_S (seconds per ncu run, default 100)
+#                              ncu), SASS_NCU_S (seconds per ncu run, default 90)
 # Needs a GPU for part 2 only; part 1 needs cuobjdump (CUDA toolkit).
 set -uo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -69,7 +72,7 @@ ncu_bin=$(command -v ncu || echo /usr/local/cuda/bin/ncu)
 profile() {  # case launches-to-skip label VAR=value...
   local c=$1 skipn=$2 label=$3
   shift 3
-  env "$@" BIODEM_GPU_GRAPH=0 timeout "${SASS_NCU_S:-100}" "$ncu_bin" --clock-control none --cache-control none \
+  env "$@" BIODEM_GPU_GRAPH=0 timeout "${SASS_NCU_S:-90}" "$ncu_bin" --clock-control none --cache-control none \
     --kernel-name-base demangled --kernel-name 'regex:PairEntries|SumEntries|Forces|ReduceKickDrift' \
     --launch-skip "$skipn" --launch-count 2 --section SourceCounters --section WarpStateStats \
     --warp-sampling-interval 0 -f -o "$OUT/src_$label" \

@@ -20,7 +20,7 @@ struct CalibTest {
   /// responses come from the flowability analysis of its series, with these options.
   std::optional<DrumAnalysis> drum;
   /// `seeds = [s1, s2, ...]`: the test is run once per seed (its case's [run].seed set to it, in
-  /// DIR/runs/.../<name>_seed<s>), and each of its responses is the mean over the runs (a response
+  /// DIR/runs/.../<name>/seed<s>), and each of its responses is the mean over the runs (a response
   /// that one run lacks is missing). Empty: one run with the case's own seed, in .../<name>.
   std::vector<std::uint64_t> seeds;
 };

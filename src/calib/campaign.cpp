@@ -186,7 +186,9 @@ class Campaign {
           TestJob j;
           j.evaluation = e;
           j.test = t;
-          j.dir = test.seeds.empty() ? dir : dir + "_seed" + std::to_string(test.seeds[s]);
+          // (a seed's run in a folder inside the test's: test names have no slash, so no other
+          // test's folder can be the same)
+          j.dir = test.seeds.empty() ? dir : dir + "/seed" + std::to_string(test.seeds[s]);
           j.case_text = test.seeds.empty() ? text : with_seed(text, test.seeds[s]);
           j.drum = test.drum;
           j.x = batch[e].x;
@@ -216,21 +218,19 @@ class Campaign {
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());
-    // A test with seeds: each response's values over its runs (seed order), then their mean.
-    std::map<std::pair<std::size_t, std::size_t>, std::map<std::string, std::vector<double>>> per_seed;
+    // Each (evaluation, test): each response's values over the test's runs (one, or one per seed
+    // in seed order; NaN where a run lacks it), then their mean (the one value itself without
+    // seeds), merged into the evaluation's responses in test order.
+    std::vector<std::vector<std::map<std::string, std::vector<double>>>> per_test(
+        batch.size(), std::vector<std::map<std::string, std::vector<double>>>(c_.tests.size()));
     for (std::size_t q = 0; q < jobs.size(); ++q) {
       const TestJob& j = jobs[q];
       const TestRun& r = runs[q];
-      const std::size_t n_seeds = c_.tests[j.test].seeds.size();
-      if (n_seeds == 0) {
-        for (const auto& [k, v] : r.responses) responses[j.evaluation][k] = v;
-      } else {
-        auto& values = per_seed[{j.evaluation, j.test}];
-        for (const auto& [k, v] : r.responses) {
-          auto& vs = values[k];
-          vs.resize(n_seeds, NAN);
-          vs[seed_of[q]] = v;
-        }
+      const std::size_t n_runs = std::max<std::size_t>(1, c_.tests[j.test].seeds.size());
+      for (const auto& [k, v] : r.responses) {
+        auto& vs = per_test[j.evaluation][j.test][k];
+        vs.resize(n_runs, NAN);
+        vs[seed_of[q]] = v;
       }
       wall[j.evaluation] += r.wall_s;
       if (r.rc != 0) errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (see " + j.dir + "/stdout.txt)";
@@ -244,45 +244,49 @@ class Campaign {
         ++warned_runs_;
       }
       if (const auto h = r.responses.find("heap_found"); h != r.responses.end() && h->second == 0.0) {
-        log_ << who << "no heap found (heap_found = 0): angle_of_repose_deg = 0 is scored\n";
+        log_ << who << "no heap found (heap_found = 0): angle_of_repose_deg = 0 is scored"
+             << (c_.tests[j.test].seeds.empty() ? "" : " (in the mean over the seeds)") << " (" << j.dir << ")\n";
         ++no_heap_runs_;
       }
     }
-    for (const auto& [et, values] : per_seed) {
-      const auto& [e, t] = et;
-      const CalibTest& test = c_.tests[t];
-      const std::size_t n = test.seeds.size();
-      for (const auto& [k, vs] : values) {
-        // The mean over every seed's run; a run that lacks the response (NaN in its place, or a
-        // failed run's missing value) leaves it missing, so an objective that needs it fails.
-        double sum = 0.0;
-        for (const double v : vs) sum += v;
-        responses[e][k] = vs.size() == n ? sum / static_cast<double>(n) : NAN;
+    for (std::size_t e = 0; e < batch.size(); ++e)
+      for (std::size_t t = 0; t < c_.tests.size(); ++t) {
+        const CalibTest& test = c_.tests[t];
+        const auto& values = per_test[e][t];
+        const std::size_t n = std::max<std::size_t>(1, test.seeds.size());
+        for (const auto& [k, vs] : values) {
+          // The mean over the runs (without seeds, over one: the value itself); a run that lacks
+          // the response (NaN in its place) leaves it missing, so an objective that needs it fails.
+          double sum = 0.0;
+          for (const double v : vs) sum += v;
+          responses[e][k] = sum / static_cast<double>(n);
+        }
+        if (test.seeds.empty()) continue;
+        // The targets' responses seed by seed, with their mean and sample standard deviation: how
+        // much of an objective is the seed's.
+        std::ostringstream line;
+        line.precision(6);
+        line << "evaluation g" << batch[e].generation << " e" << batch[e].index << " " << test.name << ", seeds";
+        for (const auto sd : test.seeds) line << ' ' << sd;
+        line << ':';
+        bool any = false;
+        for (const auto& g : c_.targets) {
+          const auto it = values.find(g.response);
+          if (it == values.end()) continue;
+          const std::vector<double>& vs = it->second;
+          double mean = 0.0, ss = 0.0;
+          for (const double v : vs) mean += v;
+          mean /= static_cast<double>(n);
+          for (const double v : vs) ss += (v - mean) * (v - mean);
+          line << (any ? "; " : " ") << g.response;
+          for (const double v : vs) line << ' ' << v;
+          line << " (mean " << mean;
+          if (n > 1) line << ", sd " << std::sqrt(ss / static_cast<double>(n - 1));
+          line << ')';
+          any = true;
+        }
+        if (any) log_ << line.str() << '\n';
       }
-      // The targets' responses seed by seed, with their mean and sample standard deviation: how
-      // much of an objective is the seed's.
-      std::ostringstream line;
-      line.precision(6);
-      line << "evaluation g" << batch[e].generation << " e" << batch[e].index << " " << test.name << ", seeds";
-      for (const auto s : test.seeds) line << ' ' << s;
-      line << ':';
-      bool any = false;
-      for (const auto& g : c_.targets) {
-        const auto it = values.find(g.response);
-        if (it == values.end()) continue;
-        const std::vector<double>& vs = it->second;
-        const double mean = responses[e][g.response];
-        double ss = 0.0;
-        for (const double v : vs) ss += (v - mean) * (v - mean);
-        line << (any ? "; " : " ") << g.response;
-        for (const double v : vs) line << ' ' << v;
-        line << " (mean " << mean;
-        if (n > 1) line << ", sd " << std::sqrt(ss / static_cast<double>(n - 1));
-        line << ')';
-        any = true;
-      }
-      if (any) log_ << line.str() << '\n';
-    }
     for (std::size_t e = 0; e < batch.size(); ++e) {
       auto& ev = batch[e];
       ev.responses.clear();

@@ -17,9 +17,11 @@ struct RunOptions {
   bool progress_tty = false;
   bool profile = false;  // --profile: per-phase timers of the CPU step in run.log
   std::optional<config::Device> device;  // --device; absent: the case's [run] device (default cpu)
-  /// Called once every check has passed (case, device, output folder, checkpoint of a resume),
-  /// before the first computation: `biodem run` prints the case's warnings there, so that a run
-  /// refused on bad input prints its one-line error alone.
+  /// Called once the checks have passed (case, device, output folder, the checkpoint file of a
+  /// resume and its case), before the first computation: `biodem run` prints the case's warnings
+  /// there, so that a run refused on bad input prints its one-line error alone. (One check comes
+  /// later: a resumed insertion's state against the case, which only a damaged checkpoint of the
+  /// same case can fail.)
   std::function<void()> on_start;
 };
 

@@ -298,7 +298,7 @@ TEST(Calibrate, SeedsAverageTheRunsOfATest) {
   ASSERT_EQ(r.status, 0) << r.output;
   double sum = 0.0;
   for (const int seed : {1, 2}) {
-    const std::string run = d + "/out/runs/evaluate/e0/heap_seed" + std::to_string(seed);
+    const std::string run = d + "/out/runs/evaluate/e0/heap/seed" + std::to_string(seed);
     EXPECT_NE(slurp(run + "/case.toml").find("\nseed = " + std::to_string(seed) + "\n"), std::string::npos);
     const auto resp = read_csv(run + "/out/responses.csv");
     const auto& names = resp.at("response");
@@ -306,7 +306,7 @@ TEST(Calibrate, SeedsAverageTheRunsOfATest) {
     ASSERT_NE(at, names.end());
     sum += std::stod(resp.at("value")[static_cast<std::size_t>(at - names.begin())]);
   }
-  EXPECT_FALSE(fs::exists(d + "/out/runs/evaluate/e0/heap"));
+  EXPECT_FALSE(fs::exists(d + "/out/runs/evaluate/e0/heap/case.toml"));  // only the seeds' runs
   EXPECT_TRUE(fs::exists(d + "/out/runs/evaluate/e0/shear_box/out/responses.csv"));
   const auto ev = read_csv(d + "/out/evaluations.csv");
   ASSERT_EQ(ev.at("angle_of_repose_deg").size(), 1u);

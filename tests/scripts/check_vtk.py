@@ -12,7 +12,7 @@ out, expected = sys.argv[1], int(sys.argv[2])
 expected_bodies = int(sys.argv[3]) if len(sys.argv) > 3 else expected
 
 
-def check(pvd_name, folder, points, fields):
+def check(pvd_name, folder, points, fields, positive):
     pvd = ET.parse(os.path.join(out, pvd_name)).getroot()
     files = [d.get("file") for d in pvd.iter("DataSet")]
     assert files, f"{pvd_name} lists no data sets"
@@ -32,16 +32,15 @@ def check(pvd_name, folder, points, fields):
             assert a is not None, f"{f}: no point array {name}"
             assert a.GetNumberOfComponents() == comps, f"{f}: {name} has {a.GetNumberOfComponents()} components"
             assert a.GetNumberOfTuples() == points
-    return files, pd
+        lo = pd.GetArray(positive).GetRange()[0]
+        assert lo > 0, f"{f}: non-positive {positive} ({lo})"
+    return files
 
 
-files, pd = check("snapshots.pvd", "snapshots", expected, (("velocity", 3), ("speed", 1), ("radius", 1), ("body_id", 1)))
-rad = pd.GetArray("radius").GetRange()
-assert rad[0] > 0, f"{files[-1]}: non-positive radius"
-bfiles, bpd = check("bodies.pvd", "bodies", expected_bodies,
-                    (("velocity", 3), ("angular_velocity", 3), ("speed", 1), ("mass", 1), ("body_id", 1),
-                     ("shape", 1), ("orientation", 4)))
+files = check("snapshots.pvd", "snapshots", expected, (("velocity", 3), ("speed", 1), ("radius", 1), ("body_id", 1)),
+              "radius")
+bfiles = check("bodies.pvd", "bodies", expected_bodies,
+               (("velocity", 3), ("angular_velocity", 3), ("speed", 1), ("mass", 1), ("body_id", 1), ("shape", 1),
+                ("orientation", 4)), "mass")
 assert len(bfiles) == len(files), f"{len(files)} sphere snapshots, {len(bfiles)} body snapshots"
-mass = bpd.GetArray("mass").GetRange()
-assert mass[0] > 0, f"{bfiles[-1]}: non-positive mass"
 print(f"ok: {len(files)} snapshots, {expected} sphere points and {expected_bodies} body points each")

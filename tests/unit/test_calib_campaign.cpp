@@ -239,7 +239,8 @@ TEST(CalibCampaign, SeedsRunATestOncePerSeedAndScoreTheirMean) {
   o.runner = [&](const calib::TestJob& j) {
     {
       std::lock_guard<std::mutex> lock(m);
-      dirs.insert(j.dir.substr(j.dir.rfind('/') + 1));
+      const std::string rel = j.dir.substr(j.dir.find("/e") + 1);  // e<index>/<test>[/seed<s>]
+      dirs.insert(rel.substr(rel.find('/') + 1));
     }
     calib::TestRun r = model(j, nullptr);
     if (j.test == 0) {
@@ -253,7 +254,7 @@ TEST(CalibCampaign, SeedsRunATestOncePerSeedAndScoreTheirMean) {
     return r;
   };
   calib::run_campaign(c, o);
-  EXPECT_EQ(dirs, (std::set<std::string>{"heap_seed3", "heap_seed7", "shear_box"}));
+  EXPECT_EQ(dirs, (std::set<std::string>{"heap/seed3", "heap/seed7", "shear_box"}));
   const auto rows = calib::read_evaluations(d + "/evaluations.csv", 3, 2);
   ASSERT_EQ(rows.size(), 16u);
   for (const auto& e : rows) {
