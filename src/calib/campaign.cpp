@@ -255,11 +255,12 @@ class Campaign {
         const auto& values = per_test[e][t];
         const std::size_t n = std::max<std::size_t>(1, test.seeds.size());
         for (const auto& [k, vs] : values) {
-          // The mean over the runs (without seeds, over one: the value itself); a run that lacks
-          // the response (NaN in its place) leaves it missing, so an objective that needs it fails.
+          // The mean over the runs (without seeds the one value itself, as it came); a run that
+          // lacks the response (NaN in its place) leaves it missing, so an objective that needs
+          // it fails.
           double sum = 0.0;
           for (const double v : vs) sum += v;
-          responses[e][k] = sum / static_cast<double>(n);
+          responses[e][k] = n == 1 ? vs[0] : sum / static_cast<double>(n);
         }
         if (test.seeds.empty()) continue;
         // The targets' responses seed by seed, with their mean and sample standard deviation: how
