@@ -13,7 +13,7 @@
 #include "core/spin_team.hpp"
 #include "integrate/rigid_rotation.hpp"
 #include "integrate/velocity_verlet.hpp"
-#include "sim/sphere_body_lanes.hpp"
+#include "sim/body_lanes.hpp"
 
 #include <omp.h>
 
@@ -196,7 +196,7 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
     return integrate::spins_as_sphere(count[b], inertia_of[b]) && offset[first[b]] == Vec3{};
   };
   // Runs of eight (four) such bodies owning as many consecutive spheres go through AVX-512F
-  // (AVX2) lanes when the pair kernel has 8 (4) lanes (sim/sphere_body_lanes.hpp: the same
+  // (AVX2) lanes when the pair kernel has 8 (4) lanes (sim/body_lanes.hpp: the same
   // operations per lane as the scalar path below).
   int (*lanes)(const SphereBodyArrays&, std::size_t) = nullptr;
   std::size_t width = 1;
@@ -263,7 +263,15 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
       }
       bodies_.force_n[b] = f;
       bodies_.torque_n_m[b] = t;
-      integrate::half_kick(v, w, l, bodies_.orientation[b], mass, inertia, ns, f, t, h);
+      if (integrate::spins_as_sphere(ns, inertia)) {  // a single sphere off its body's centre
+        integrate::half_kick(v, w, l, bodies_.orientation[b], mass, inertia, ns, f, t, h);
+      } else {
+        // half_kick's clump branch less the lab angular velocity it derives from l (two
+        // rotations and three divisions), which the turn below replaces unread (as
+        // integrate::half_kick_then_kick_and_drift).
+        v += (h / mass) * f;
+        l += h * t;
+      }
     } else {
       f = bodies_.force_n[b];
       t = bodies_.torque_n_m[b];

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The pair and wall passes' and the single-sphere bodies' AVX2 and AVX-512F files
-# (src/sim/{pair,wall}_pass_lanes{4,8}.cpp, src/sim/sphere_body_lanes{4,8}.cpp) and
+# (src/sim/{pair,wall}_pass_lanes{4,8}.cpp, src/sim/body_lanes{4,8}.cpp) and
 # the list build's AVX-512F candidate scan (src/neighbor/candidate_scan_avx512.cpp) are
 # compiled for instruction sets the baseline build does not assume. If one of them defined an
 # ordinary inline function (a Vec3 operator, a scalar contact law) as a weak symbol, the linker
@@ -9,9 +9,9 @@
 # Usage: check_lane_objects.sh libbiodem_core.a
 set -euo pipefail
 lib=$1
-members=$(ar t "$lib" | grep -E '((pair|wall)_pass_lanes(4|8)|sphere_body_lanes(4|8)|candidate_scan_avx512)\.cpp\.o$' || true)
+members=$(ar t "$lib" | grep -E '((pair|wall)_pass_lanes(4|8)|body_lanes(4|8)|candidate_scan_avx512)\.cpp\.o$' || true)
 if [ -z "$members" ]; then echo "no AVX lane objects in $lib (not an x86-64 build): nothing to check"; exit 0; fi
-bad=$(nm -C -A --defined-only "$lib" 2>/dev/null | grep -E '((pair|wall)_pass_lanes(4|8)|sphere_body_lanes(4|8)|candidate_scan_avx512)\.cpp\.o:' |
+bad=$(nm -C -A --defined-only "$lib" 2>/dev/null | grep -E '((pair|wall)_pass_lanes(4|8)|body_lanes(4|8)|candidate_scan_avx512)\.cpp\.o:' |
       awk '$(NF-1) ~ /^[TWVu]$/ || $2 ~ /^[TWVu]$/' |
       grep -v -E 'simd|_VecBuiltin|_VecBltnBtmsk|evaluate_batch_lanes|evaluate_wall_batch_lanes|advance_sphere_bodies_lanes|scan_candidates_avx512|DW\.ref\.__gxx_personality' || true)
 if [ -n "$bad" ]; then

@@ -3,7 +3,7 @@
 // same order, as the scalar path of Simulation::advance_bodies (reduce_and_kick's sums and
 // integrate::half_kick, then integrate::kick_and_drift_but_turn, the placement and the list's
 // displacement test), so the same bits; built without FMA contraction (CMakeLists.txt).
-// Included by sim/simulation_step.cpp for the declarations, and by sphere_body_lanes8.cpp (built
+// Included by sim/simulation_step.cpp for the declarations, and by body_lanes8.cpp (built
 // for AVX-512F) for the lane code.
 #pragma once
 #include <cstddef>
@@ -37,7 +37,7 @@ template <bool KickFirst> int advance_sphere_bodies_lanes4(const SphereBodyArray
 
 }  // namespace biodem::sim
 
-#if defined(BIODEM_SPHERE_BODY_LANES_IMPL)
+#if defined(BIODEM_BODY_LANES_IMPL)
 #include "sim/pair_pass_lanes.hpp"  // gather3, the lane types
 
 namespace biodem::sim {

@@ -1,7 +1,7 @@
 // Single-sphere bodies advanced 4 at a time: AVX2 (built for it, no FMA: see CMakeLists.txt);
 // called only when the CPU has it (the pair kernel's choice).
-#define BIODEM_SPHERE_BODY_LANES_IMPL 1
-#include "sim/sphere_body_lanes.hpp"
+#define BIODEM_BODY_LANES_IMPL 1
+#include "sim/body_lanes.hpp"
 
 namespace biodem::sim {
 
