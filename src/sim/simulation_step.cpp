@@ -198,28 +198,48 @@ int Simulation::advance_bodies(std::size_t b0, std::size_t b1, bool have_built, 
   // Runs of eight (four) such bodies owning as many consecutive spheres go through AVX-512F
   // (AVX2) lanes when the pair kernel has 8 (4) lanes (sim/body_lanes.hpp: the same
   // operations per lane as the scalar path below).
-  int (*lanes)(const SphereBodyArrays&, std::size_t) = nullptr;
+  // Runs of eight (four) clumps of n spheres each, owning 8n (4n) consecutive spheres (the
+  // needles), go through the same lanes (the same operations per lane as this path's clump
+  // branch and turn_waiting).
+  int (*lanes)(const BodyLaneArrays&, std::size_t) = nullptr;
+  int (*clump_lanes)(const BodyLaneArrays&, std::size_t, std::uint32_t) = nullptr;
   std::size_t width = 1;
 #if defined(BIODEM_X86_LANES)
   if (pair_kernel_ == PairKernel::Lanes8) {
     lanes = &advance_sphere_bodies_lanes8<KickFirst>;
+    clump_lanes = &advance_clump_bodies_lanes8<KickFirst>;
     width = 8;
   } else if (pair_kernel_ == PairKernel::Lanes4) {
     lanes = &advance_sphere_bodies_lanes4<KickFirst>;
+    clump_lanes = &advance_clump_bodies_lanes4<KickFirst>;
     width = 4;
   }
 #endif
-  const SphereBodyArrays arrays{first,    mass_of,  inertia_of, body_x,   body_v,  body_w,  body_f,  body_t,
-                                sphere_f, sphere_t, sphere_x,   sphere_v, sphere_w, built_x, gravity, h,
-                                dt,       limit2,   have_built};
+  BodyLaneArrays arrays{first,    mass_of,  inertia_of, body_x,   body_v,  body_w,  body_f,  body_t,
+                        sphere_f, sphere_t, sphere_x,   sphere_v, sphere_w, built_x, gravity, h,
+                        dt,       limit2,   have_built};
+  arrays.orientation = bodies_.orientation.data();
+  arrays.body_l = bodies_.angular_momentum_kg_m2_s.data();
+  arrays.offset_body = offset;
   for (std::size_t b = b0; b < b1; ++b) {
     if (lanes != nullptr && b + width <= b1) {
-      bool all = first[b + width - 1] - first[b] == width - 1;
-      for (std::size_t k = 0; k < width && all; ++k) all = single_sphere(b + k);
-      if (all) {
-        moved |= lanes(arrays, b);
-        b += width - 1;
-        continue;
+      const std::uint32_t n = count[b];
+      if (n >= 2) {
+        bool run = first[b + width - 1] - first[b] == (width - 1) * n;
+        for (std::size_t k = 1; k < width && run; ++k) run = count[b + k] == n;
+        if (run) {
+          moved |= clump_lanes(arrays, b, n);
+          b += width - 1;
+          continue;
+        }
+      } else {
+        bool all = first[b + width - 1] - first[b] == width - 1;
+        for (std::size_t k = 0; k < width && all; ++k) all = single_sphere(b + k);
+        if (all) {
+          moved |= lanes(arrays, b);
+          b += width - 1;
+          continue;
+        }
       }
     }
     const std::uint32_t s0 = first[b], ns = count[b];

@@ -13,7 +13,7 @@ members=$(ar t "$lib" | grep -E '((pair|wall)_pass_lanes(4|8)|body_lanes(4|8)|ca
 if [ -z "$members" ]; then echo "no AVX lane objects in $lib (not an x86-64 build): nothing to check"; exit 0; fi
 bad=$(nm -C -A --defined-only "$lib" 2>/dev/null | grep -E '((pair|wall)_pass_lanes(4|8)|body_lanes(4|8)|candidate_scan_avx512)\.cpp\.o:' |
       awk '$(NF-1) ~ /^[TWVu]$/ || $2 ~ /^[TWVu]$/' |
-      grep -v -E 'simd|_VecBuiltin|_VecBltnBtmsk|evaluate_batch_lanes|evaluate_wall_batch_lanes|advance_sphere_bodies_lanes|scan_candidates_avx512|DW\.ref\.__gxx_personality' || true)
+      grep -v -E 'simd|_VecBuiltin|_VecBltnBtmsk|evaluate_batch_lanes|evaluate_wall_batch_lanes|advance_(sphere|clump)_bodies_lanes|scan_candidates_avx512|DW\.ref\.__gxx_personality' || true)
 if [ -n "$bad" ]; then
   echo "AVX lane objects define symbols that baseline code could bind to:"
   echo "$bad"
