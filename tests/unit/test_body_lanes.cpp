@@ -181,7 +181,7 @@ TEST(BodyLanes, ClumpStepGivesTheScalarFunctionsBits) {
   int compared = 0, moved = 0;
   for (const Width& wd : widths) {
     if (!sim::pair_kernel_available(wd.kernel)) continue;
-    for (std::uint32_t n : {2u, 3u, 5u})
+    for (std::uint32_t n : {2u, 3u, 4u, 5u})
       for (bool kick_first : {false, true})
         // 200 rad/s: every sub-step angle on the series; 2e4 rad/s: half of them beyond 1/16 rad,
         // on the library's sine and cosine, lane by lane.
