@@ -725,6 +725,14 @@ TEST(CaseParser, DeviceAndWallRollingReference) {
   const auto lab = case_file::parse_case(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"lab\"\n\n[run]"),
                                   "case.toml").config;
   EXPECT_EQ(lab.contact.wall_rolling_reference, config::WallRollingReference::Lab);
+  // The friction rule defaults to the reference one (SPEC 2.2: cohesion kept out of the limits)
+  // with or without a [contact] table, and follows the key.
+  EXPECT_FALSE(def.contact.tangential_reduce);
+  EXPECT_FALSE(lab.contact.tangential_reduce);
+  const auto reduce = case_file::parse_case(edit(kSpecExample, "[run]", "[contact]\ntangential_reduce = true\n\n[run]"),
+                                            "case.toml").config;
+  EXPECT_TRUE(reduce.contact.tangential_reduce);
+  EXPECT_EQ(reduce.contact.wall_rolling_reference, config::WallRollingReference::Wall);
   EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[run]\ndevice = \"tpu\""), "[run].device", "\"gpu\"");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[contact]\nwall_rolling_reference = \"world\"\n\n[run]"),
                      "[contact].wall_rolling_reference", "\"lab\"");
