@@ -103,6 +103,11 @@ TEST(BulkTests, PouredSpheresAreRandomLoose) {
   EXPECT_LE(r["core_solid_fraction"], 0.60);
   EXPECT_LT(r["solid_fraction"], r["core_solid_fraction"]);
   EXPECT_NEAR(r["bulk_density_kg_m3"], 2500.0 * r["solid_fraction"], 1e-6 * r["bulk_density_kg_m3"]);
+  // And the density is the retained mass over the container's volume (D = H = 20 mm in the case),
+  // written out here: a radius taken for the diameter would give a quarter of it.
+  const double container_m3 = 3.14159265358979 * 0.01 * 0.01 * 0.02;
+  EXPECT_NEAR(r["bulk_density_kg_m3"], r["mass_in_container_kg"] / container_m3, 1e-6 * r["bulk_density_kg_m3"]);
+  EXPECT_GT(r["solid_fraction"], 0.45);
 }
 
 // Shear box: the retainment ratio rises with cohesion, CED 0 -> 200 kJ/m3: measured 0.657 ->
