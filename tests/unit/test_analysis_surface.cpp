@@ -250,3 +250,33 @@ TEST(AnalysisImage, RenderedFrameGivesTheParticlesAlpha) {
     EXPECT_NEAR(m.surface.angle_deg, theta, 3.0) << "tilt " << theta;
   }
 }
+
+// Bins of several columns (ImageSurfaceParams::bin_px) take the highest surface point of their
+// columns: a bed whose top is at row 110 with a one-column spike to row 104 every fourth column
+// (disc centre (100, 100), radius 90 px). With bins of 4 columns each bin holds one spike, so
+// every profile point away from the wall sits at the spike's top edge, y = 100 - 104 + 0.5 =
+// -3.5 px (the bin's lowest column would give -9.5). Tolerance: exact.
+TEST(AnalysisFreeSurface, WideBinsTakeTheirHighestColumn) {
+  const double cx = 100.0, cy = 100.0, R = 90.0;
+  cv::Mat mask(200, 200, CV_8U, cv::Scalar(0));
+  for (int j = 10; j <= 190; ++j) {
+    const double x = j - cx;
+    const int bottom = static_cast<int>(cy + std::sqrt(std::max(0.0, R * R - x * x))) - 1;
+    const int top = j % 4 == 0 ? 104 : 110;
+    for (int i = top; i <= bottom; ++i) mask.at<std::uint8_t>(i, j) = 255;
+  }
+  ImageSurfaceParams p;
+  p.bin_px = 4;
+  const auto profile = free_surface_profile_mask(mask, cx, cy, R, p);
+  int inner = 0;
+  for (const ProfilePoint& q : profile) {
+    if (std::abs(q.x) > 70.0) continue;  // bins cut by the wall zone may lose their spike
+    EXPECT_EQ(q.y, -3.5) << "bin at x = " << q.x;
+    ++inner;
+  }
+  EXPECT_GE(inner, 30);
+  p.bin_px = 1;  // one column per bin: spikes and the base alternate
+  int low = 0;
+  for (const ProfilePoint& q : free_surface_profile_mask(mask, cx, cy, R, p)) low += q.y == -9.5;
+  EXPECT_GT(low, 60);
+}
