@@ -282,6 +282,8 @@ TEST(Determinism, ClumpLanesGiveTheScalarPathsBits) {
   for (const bool ahead : {false, true}) {
     const Snapshot scalar = run(2, steps, 16, false, sim::PairKernel::Scalar, ahead, 2);
     ASSERT_GT(scalar.x.size(), 100u);
+    EXPECT_GT(scalar.builds, 1u) << "no list build after the first: the displacement test is not seen";
+    EXPECT_GT(scalar.contacts, 0u);
     for (sim::PairKernel k : {sim::PairKernel::Lanes4, sim::PairKernel::Lanes8}) {
       if (!sim::pair_kernel_available(k)) continue;
       const std::string what = sim::pair_kernel_name(k) + (ahead ? ", steps ahead" : ", plain steps");

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The pair and wall passes' and the single-sphere bodies' AVX2 and AVX-512F files
+# The pair and wall passes' and the bodies' (single spheres and clumps) AVX2 and AVX-512F files
 # (src/sim/{pair,wall}_pass_lanes{4,8}.cpp, src/sim/body_lanes{4,8}.cpp) and
 # the list build's AVX-512F candidate scan (src/neighbor/candidate_scan_avx512.cpp) are
 # compiled for instruction sets the baseline build does not assume. If one of them defined an

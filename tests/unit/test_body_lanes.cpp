@@ -34,7 +34,7 @@ struct Bodies {
   std::vector<Vec3> sf, st, sx, sv, sw, built, offset;
 };
 
-Bodies random_bodies(std::size_t count, std::uint32_t n, std::uint64_t seed, double spin_rad_s) {
+Bodies random_bodies(std::size_t count, std::uint32_t n, std::uint64_t seed, double spin_rad_s, std::size_t mover_every) {
   std::mt19937_64 g(seed);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto vec = [&](double scale) { return Vec3{scale * u(g), scale * u(g), scale * u(g)}; };
@@ -62,8 +62,9 @@ Bodies random_bodies(std::size_t count, std::uint32_t n, std::uint64_t seed, dou
       b.st.push_back(vec(1e-6));
       b.sv.push_back(vec(1.0));
       b.sw.push_back(vec(1.0));
-      // Some spheres within the list's limit of their build position, some beyond it.
-      b.built.push_back(b.sx.back() + vec(i % 3 == 0 ? 1e-3 : 1e-5));
+      // Every mover_every-th body 1 mm from its build position (beyond the list's limit of
+      // 0.1 mm), the others within 17 um of it (and at 200 rad/s within the limit after the step).
+      b.built.push_back(b.sx.back() + vec(i % mover_every == 0 ? 1e-3 : 1e-5));
     }
   }
   return b;
@@ -142,15 +143,20 @@ using ClumpLanes = int (*)(const sim::BodyLaneArrays&, std::size_t, std::uint32_
 
 /// Runs `lanes` over bodies [0, count) in groups of `width` and the scalar path over a copy.
 void compare(ClumpLanes lanes, std::size_t width, bool kick_first, std::uint32_t n, double spin, std::uint64_t seed,
-             int& lane_moved_total) {
+             int& groups_moved, int& groups_still) {
   const std::size_t count = 6 * width;
-  Bodies scalar = random_bodies(count, n, seed, spin), lane = scalar;
-  // Bodies with a sub-step half angle beyond the series (|0.5 dt pi_k / I_k| > 1/16 rad).
+  // A body 1 mm off its build position in every other group: groups that must and must not
+  // report a move.
+  Bodies scalar = random_bodies(count, n, seed, spin, 2 * width), lane = scalar;
+  // Bodies with a sub-step half angle beyond the series: R1 and R2 turn by dt/2 (half angle
+  // dt/4 * omega_k), R3 by dt (half angle dt/2 * omega_z), omega_k = pi_k / I_k at the start.
   int beyond = 0;
   for (std::size_t i = 0; i < count; ++i) {
     const Vec3 pi = rotate_inverse(scalar.q[i], scalar.l[i]);
     const Vec3& in = scalar.inertia[i];
-    beyond += std::max({std::abs(pi.x / in.x), std::abs(pi.y / in.y), std::abs(pi.z / in.z)}) * 0.5 * kDt > kSmallAngleMax;
+    const double half = std::max({0.25 * kDt * std::abs(pi.x / in.x), 0.25 * kDt * std::abs(pi.y / in.y),
+                                  0.5 * kDt * std::abs(pi.z / in.z)});
+    beyond += half > kSmallAngleMax;
   }
   if (spin > 1e4)
     EXPECT_GT(beyond, 0) << "the large spins do not leave the series";
@@ -162,7 +168,7 @@ void compare(ClumpLanes lanes, std::size_t width, bool kick_first, std::uint32_t
     for (std::size_t i = g; i < g + width; ++i) moved |= scalar_step(scalar, i, kick_first);
     const int lane_moved = lanes(a, g, n);
     EXPECT_EQ(lane_moved, moved) << "group " << g / width;
-    lane_moved_total += lane_moved;
+    (lane_moved ? groups_moved : groups_still) += 1;
   }
   expect_same(scalar, lane,
               std::to_string(width) + " lanes, n = " + std::to_string(n) + (kick_first ? ", kick first" : "") +
@@ -178,7 +184,7 @@ TEST(BodyLanes, ClumpStepGivesTheScalarFunctionsBits) {
   const Width widths[] = {
       {sim::PairKernel::Lanes4, &sim::advance_clump_bodies_lanes4<false>, &sim::advance_clump_bodies_lanes4<true>, 4},
       {sim::PairKernel::Lanes8, &sim::advance_clump_bodies_lanes8<false>, &sim::advance_clump_bodies_lanes8<true>, 8}};
-  int compared = 0, moved = 0;
+  int compared = 0, moved = 0, still = 0;
   for (const Width& wd : widths) {
     if (!sim::pair_kernel_available(wd.kernel)) continue;
     for (std::uint32_t n : {2u, 3u, 4u, 5u})
@@ -186,12 +192,47 @@ TEST(BodyLanes, ClumpStepGivesTheScalarFunctionsBits) {
         // 200 rad/s: every sub-step angle on the series; 2e4 rad/s: half of them beyond 1/16 rad,
         // on the library's sine and cosine, lane by lane.
         for (double spin : {200.0, 2.0e4}) {
-          compare(kick_first ? wd.kick_first : wd.plain, wd.width, kick_first, n, spin, 7 + n, moved);
+          compare(kick_first ? wd.kick_first : wd.plain, wd.width, kick_first, n, spin, 7 + n, moved, still);
           ++compared;
         }
   }
   if (compared == 0) GTEST_SKIP() << "this CPU has neither AVX2 nor AVX-512F";
   EXPECT_GT(moved, 0) << "no group crossed the list's displacement limit: the test does not see it";
+  EXPECT_GT(still, 0) << "every group crossed the list's displacement limit: the test does not see a false move";
+}
+
+// The displacement test's two other cases: without build positions (have_built false: no
+// move is reported, the state is the same) and with a non-finite position (a NaN velocity: the
+// move is reported, as the scalar test's !(d2 <= limit) does, so the run's next build fails).
+TEST(BodyLanes, ClumpStepWithoutBuildPositionsAndWithANaN) {
+  struct Width {
+    sim::PairKernel kernel;
+    ClumpLanes lanes;
+    std::size_t width;
+  };
+  const Width widths[] = {{sim::PairKernel::Lanes4, &sim::advance_clump_bodies_lanes4<true>, 4},
+                          {sim::PairKernel::Lanes8, &sim::advance_clump_bodies_lanes8<true>, 8}};
+  int compared = 0;
+  for (const Width& wd : widths) {
+    if (!sim::pair_kernel_available(wd.kernel)) continue;
+    ++compared;
+    Bodies scalar = random_bodies(wd.width, 3, 5, 200.0, 1), lane = scalar;  // every body 1 mm off
+    sim::BodyLaneArrays a = arrays_of(lane);
+    a.have_built = false;
+    for (std::size_t i = 0; i < wd.width; ++i) scalar_step(scalar, i, true);
+    EXPECT_EQ(wd.lanes(a, 0, 3), 0) << wd.width << " lanes, no build positions";
+    expect_same(scalar, lane, std::to_string(wd.width) + " lanes, no build positions");
+
+    Bodies nan_scalar = random_bodies(wd.width, 3, 6, 200.0, 1);
+    nan_scalar.built = nan_scalar.sx;  // every sphere at its build position: only the NaN moves
+    nan_scalar.v[1].x = std::nan("");
+    Bodies nan_lane = nan_scalar;
+    int moved = 0;
+    for (std::size_t i = 0; i < wd.width; ++i) moved |= scalar_step(nan_scalar, i, true);
+    EXPECT_EQ(moved, 1);
+    EXPECT_EQ(wd.lanes(arrays_of(nan_lane), 0, 3), 1) << wd.width << " lanes, a NaN velocity";
+  }
+  if (compared == 0) GTEST_SKIP() << "this CPU has neither AVX2 nor AVX-512F";
 }
 
 #endif
