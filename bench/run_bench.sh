@@ -88,11 +88,15 @@ for case in dict.fromkeys(r["case"] for r in rows):
     for r in rows:
         if r["case"] != case or r["code"] != "liggghts" or rate(r) is None: continue
         line = f"  LIGGGHTS {r['cores']} rank(s), skin {r['skin']} x radius: {rate(r):.3g}"
-        if r["cores"] == "1" and best1: line += f"  -> biodem 1 thread / LIGGGHTS = {best1 / rate(r):.2f}x (target >= 3x)"
+        # the median repetition (the upper one of an even count) and the range of all of them
+        if r["cores"] == "1" and best1:
+            line += (f"  -> biodem 1 thread / LIGGGHTS = {best1 / rate(r):.2f}x"
+                     f" (repetitions {ones[0] / rate(r):.2f}-{ones[-1] / rate(r):.2f}x; target >= 3x)")
         if r["cores"] == "2" and two:
             twos = sorted(v for v in two.values() if v)
             best2 = twos[len(twos) // 2]
-            line += f"  -> biodem 2 threads / LIGGGHTS 2 ranks = {best2 / rate(r):.2f}x"
+            line += (f"  -> biodem 2 threads / LIGGGHTS 2 ranks = {best2 / rate(r):.2f}x"
+                     f" (repetitions {twos[0] / rate(r):.2f}-{twos[-1] / rate(r):.2f}x)")
         print(line)
 PY
 echo "results: $results"
