@@ -13,6 +13,7 @@
 #include <fstream>
 #include <mutex>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "calib/calib_file.hpp"
@@ -24,6 +25,8 @@
 #endif
 #include "core/error.hpp"
 #include "test_util.hpp"
+
+#include <toml++/toml.h>
 
 using namespace biodem;
 using namespace biodem::testing;
@@ -78,6 +81,42 @@ TEST(CalibEvaluationsCsv, RowsReadBackBitForBitAndBrokenLinesAreSkipped) {
   EXPECT_TRUE(same_bits(rows[0].o1, e.o1));
   EXPECT_TRUE(same_bits(rows[0].o2, e.o2));
   EXPECT_TRUE(calib::read_evaluations(d + "/missing.csv", 3, 2).empty());
+}
+
+// A parameter's key names a pair by its two materials in either order: the campaign's key
+// "pair.bead.steel.*" must reach a case whose [[pair]] lists ["steel", "bead"] (else the
+// campaign would run the same case for every parameter vector, without an error). The values
+// are checked in the case text apply_parameters writes, read back by the case parser.
+TEST(CalibFile, ParameterKeyMatchesAPairListedInEitherOrder) {
+  calib::CalibConfig c = micro();
+  calib::CalibTest t = c.tests.at(0);
+  toml::table in = toml::parse(t.case_text);
+  int swapped = 0;
+  for (auto& e : *in.get_as<toml::array>("pair")) {
+    toml::table& p = *e.as_table();
+    const auto& m = *p.get_as<toml::array>("materials");
+    if (m[0].value_or(std::string()) == "bead" && m[1].value_or(std::string()) == "steel") {
+      p.insert_or_assign("materials", toml::array{"steel", "bead"});
+      ++swapped;
+    }
+  }
+  ASSERT_EQ(swapped, 1) << "the micro campaign's case has no bead/steel pair";
+  std::ostringstream os;
+  os << in;
+  t.case_text = os.str();
+  const std::string out = calib::apply_parameters(c, t, {0.37, 0.21, 1234.0});
+  const toml::table tb = toml::parse(out);
+  int seen = 0;
+  for (const auto& e : *tb.get_as<toml::array>("pair")) {
+    const toml::table& p = *e.as_table();
+    const auto& m = *p.get_as<toml::array>("materials");
+    if (m[0].value_or(std::string()) != "steel") continue;
+    ++seen;
+    EXPECT_EQ(p["sliding_friction"].value_or(-1.0), 0.37);
+    EXPECT_EQ(p["rolling_friction"].value_or(-1.0), 0.21);
+    EXPECT_EQ(p["cohesion_energy_density_j_m3"].value_or(-1.0), 617.0);  // factor 0.5 for steel
+  }
+  EXPECT_EQ(seen, 1);
 }
 
 TEST(CalibObjectives, WeightedMeanOfRelativeErrorsAndMissingResponses) {

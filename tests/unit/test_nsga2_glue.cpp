@@ -71,6 +71,32 @@ TEST(Nsga2Glue, HypervolumeOfAKnownStaircase) {
   // Points (0.2, 0.6) and (0.5, 0.3) against (1, 1): 0.3 * 0.4 + 0.5 * 0.7 = 0.47.
   EXPECT_NEAR(hypervolume_2d({{0.5, 0.3}, {0.2, 0.6}, {0.6, 0.7}}, 1.0, 1.0), 0.47, 1e-15);
 }
+
+// The final Pareto set: only points that no other point weakly dominates (no worse in both
+// objectives and better in one). Ties are common in campaigns (quantised responses, failed runs
+// scored 1e9 in both), so (1, 3) must go because of (1, 2), and (3, 1) because of (2, 1); two
+// different vectors with the same objectives both stay, and a repeated vector counts once.
+TEST(Nsga2Glue, ParetoFrontDropsWeaklyDominatedPoints) {
+  auto ev = [](double x, double o1, double o2) {
+    Evaluation e;
+    e.x = {x};
+    e.o1 = o1;
+    e.o2 = o2;
+    return e;
+  };
+  const std::vector<Evaluation> all{ev(0.1, 1, 2), ev(0.2, 1, 3), ev(0.3, 2, 1), ev(0.4, 3, 1),
+                                    ev(0.5, 1e9, 1e9), ev(0.6, 2, 1), ev(0.1, 1, 2)};
+  const std::vector<Evaluation> front = pareto_front(all);
+  ASSERT_EQ(front.size(), 3u);
+  EXPECT_EQ(front[0].x, std::vector<double>{0.1});
+  EXPECT_EQ(front[1].x, std::vector<double>{0.3});
+  EXPECT_EQ(front[2].x, std::vector<double>{0.6});
+  EXPECT_EQ(front[0].o1, 1.0);
+  EXPECT_EQ(front[0].o2, 2.0);
+  EXPECT_EQ(front[1].o1, 2.0);
+  EXPECT_EQ(front[1].o2, 1.0);
+}
+
 #else
 TEST(Nsga2Glue, NotBuilt) { GTEST_SKIP() << "pagmo not found: calibrate is not built"; }
 #endif
