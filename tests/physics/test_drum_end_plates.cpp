@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "physics_support.hpp"
@@ -67,4 +68,44 @@ TEST(DrumEndPlates, BothPlatesDragARestingSphereTheWayTheDrumTurns) {
     EXPECT_LT(std::abs(v.y), 0.1 * u) << (back ? "back" : "front") << " plate";
     EXPECT_LT(std::abs(v.z), 1e-3 * u) << "the sphere stays on the plate";
   }
+}
+
+// A drum with a periodic axis (SPEC 5's periodic option: no end plates, the bed repeats along the
+// axis with the drum's width as its period): two spheres R = 2 mm at the same (x, y), one 1.9 mm
+// above z = 0 and one 1.9 mm below z = W, touch through the seam with an overlap of 0.2 mm.
+// Each is pushed away from the seam by the static Hertz force (4/3) Y* sqrt(R/2) delta^(3/2)
+// (at rest: no damping, no tangential force), equal and opposite. Tolerance 1e-9 relative. A
+// period other than W (e.g. 2W: a drum twice as wide, half filled) leaves them apart; a wrong
+// image sign pulls them together.
+TEST(PeriodicDrum, SpheresTouchAcrossTheSeam) {
+  SimSetup su;
+  su.particle = kPolymer;
+  su.wall = kPolymer;
+  su.particle_wall = {0.5, 0.5, 0.0, 0.0};
+  su.particle_particle = su.particle_wall;
+  su.templates = {sphere_template(kR)};
+  su.dt_s = 5e-6;
+  su.gravity_m_s2 = {0, 0, 0};
+  sim::Simulation s = make_simulation(su);
+  scenario::DrumGeometry d;
+  d.diameter_m = 0.1;
+  d.width_m = kWidth;
+  d.rpm = 0.0;
+  d.mantle_material = kWall;
+  d.endplate_material = kWall;
+  d.periodic_axis = true;
+  scenario::add_drum(s, d);
+  EXPECT_EQ(s.domain().length_m().z, kWidth);
+  const double gap = 1.9e-3, delta = 2 * kR - 2 * gap;
+  add_particle(s, 0, {0, kY, gap});
+  add_particle(s, 0, {0, kY, kWidth - gap});
+  s.refresh();
+  const Vec3 f_low = s.spheres().force_n[0], f_high = s.spheres().force_n[1];
+  const double expect = 4.0 / 3.0 * effective_young_pa(kPolymer, kPolymer) * std::sqrt(0.5 * kR) * std::pow(delta, 1.5);
+  std::printf("[measured] periodic drum: force across the seam %.9g N on the low sphere, %.9g N on the high one "
+              "(Hertz %.9g N)\n", f_low.z, f_high.z, expect);
+  EXPECT_NEAR(f_low.z, expect, 1e-9 * expect);
+  EXPECT_NEAR(f_high.z, -expect, 1e-9 * expect);
+  EXPECT_NEAR(std::hypot(f_low.x, f_low.y), 0.0, 1e-12 * expect);
+  EXPECT_EQ(s.contact_count(), 1u);
 }
