@@ -214,6 +214,25 @@ TEST(VerletList, StaysCompleteWithinHalfSkinAndAfterRebuild) {
   }
 }
 
+// The rebuild trigger is half the skin: two spheres approaching each other by up to skin/2 each
+// close a gap of at most one skin, so a pair outside the list cannot touch before the rebuild.
+// One sphere moved by 0.49 skin needs no rebuild, by 0.51 skin it does (a trigger at the full
+// skin would let two spheres starting 1.5 skins apart overlap unlisted).
+TEST(VerletList, RebuildTriggerIsHalfTheSkin) {
+  const Domain dom = make_domain({false, false, false});
+  for (const double frac : {0.49, 0.51}) {
+    state::SphereStore s = make_packing(7, 100, dom, false);
+    VerletList L;
+    L.configure(dom, kSkin);
+    L.build(s);
+    s.position_m[17] += normalized(Vec3{1, -2, 0.5}) * (frac * kSkin);
+    EXPECT_EQ(L.needs_rebuild(s), frac > 0.5) << "moved by " << frac << " skin";
+  }
+  VerletList L;
+  L.configure(dom, kSkin);
+  EXPECT_EQ(L.rebuild_limit2(), 0.25 * kSkin * kSkin);
+}
+
 TEST(VerletList, HistoryOfPairsThatStayInContactSurvivesRebuild) {
   for (const Variant& v : kVariants) {
     SCOPED_TRACE(v.name);
