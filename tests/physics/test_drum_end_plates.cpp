@@ -75,8 +75,8 @@ TEST(DrumEndPlates, BothPlatesDragARestingSphereTheWayTheDrumTurns) {
 // above z = 0 and one 1.9 mm below z = W, touch through the seam with an overlap of 0.2 mm.
 // Each is pushed away from the seam by the static Hertz force (4/3) Y* sqrt(R/2) delta^(3/2)
 // (at rest: no damping, no tangential force), equal and opposite. Tolerance 1e-9 relative. A
-// period other than W (e.g. 2W: a drum twice as wide, half filled) leaves them apart; a wrong
-// image sign pulls them together.
+// period other than W (e.g. 2W: a drum twice as wide, half filled) leaves them apart (checked),
+// and so would an image shifted the wrong way.
 TEST(PeriodicDrum, SpheresTouchAcrossTheSeam) {
   SimSetup su;
   su.particle = kPolymer;
