@@ -29,8 +29,9 @@ namespace {
 constexpr double kR = 2e-3, kG = 9.81, kWidth = 20e-3, kY = -30e-3;
 const Material kPolymer{1e8, 0.3, 2500.0};
 
-/// Centre velocity (x, y) of the sphere after 25 ms on the front (z = 0) or back plate.
-Vec3 dragged(bool back) {
+/// The drum of these tests (diameter 100 mm, width kWidth, polymer spheres R = kR, mu = 0.5),
+/// built by scenario::add_drum.
+sim::Simulation drum_scene(double gravity_z, double rpm, bool periodic_axis) {
   SimSetup su;
   su.particle = kPolymer;
   su.wall = kPolymer;
@@ -38,15 +39,22 @@ Vec3 dragged(bool back) {
   su.particle_particle = su.particle_wall;
   su.templates = {sphere_template(kR)};
   su.dt_s = 5e-6;  // ~9 % of the Rayleigh time
-  su.gravity_m_s2 = {0, 0, back ? kG : -kG};
+  su.gravity_m_s2 = {0, 0, gravity_z};
   sim::Simulation s = make_simulation(su);
   scenario::DrumGeometry d;
   d.diameter_m = 0.1;
   d.width_m = kWidth;
-  d.rpm = 60.0;
+  d.rpm = rpm;
   d.mantle_material = kWall;
   d.endplate_material = kWall;
+  d.periodic_axis = periodic_axis;
   scenario::add_drum(s, d);
+  return s;
+}
+
+/// Centre velocity (x, y) of the sphere after 25 ms on the front (z = 0) or back plate.
+Vec3 dragged(bool back) {
+  sim::Simulation s = drum_scene(back ? kG : -kG, 60.0, false);
   s.set_drum_rotation(true);
   const double m = sphere_mass_kg(kR, kPolymer.density_kg_m3);
   const double d0 = hertz_static_overlap_m(m * kG, kR, effective_young_pa(kPolymer, kPolymer));
@@ -78,23 +86,7 @@ TEST(DrumEndPlates, BothPlatesDragARestingSphereTheWayTheDrumTurns) {
 // period other than W (e.g. 2W: a drum twice as wide, half filled) leaves them apart (checked),
 // and so would an image shifted the wrong way.
 TEST(PeriodicDrum, SpheresTouchAcrossTheSeam) {
-  SimSetup su;
-  su.particle = kPolymer;
-  su.wall = kPolymer;
-  su.particle_wall = {0.5, 0.5, 0.0, 0.0};
-  su.particle_particle = su.particle_wall;
-  su.templates = {sphere_template(kR)};
-  su.dt_s = 5e-6;
-  su.gravity_m_s2 = {0, 0, 0};
-  sim::Simulation s = make_simulation(su);
-  scenario::DrumGeometry d;
-  d.diameter_m = 0.1;
-  d.width_m = kWidth;
-  d.rpm = 0.0;
-  d.mantle_material = kWall;
-  d.endplate_material = kWall;
-  d.periodic_axis = true;
-  scenario::add_drum(s, d);
+  sim::Simulation s = drum_scene(0.0, 0.0, true);
   EXPECT_EQ(s.domain().length_m().z, kWidth);
   const double gap = 1.9e-3, delta = 2 * kR - 2 * gap;
   add_particle(s, 0, {0, kY, gap});
