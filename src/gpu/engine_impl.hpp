@@ -172,14 +172,6 @@ class Engine final : public DeviceEngine {
       if (v != "compact" && v != "full") throw Error("BIODEM_GPU_PAIR_LIST = '" + v + "': expected compact or full");
       compact_pairs_ = v == "compact";
     }
-    // BIODEM_GPU_WALK_COMPACT=1|0: the row walk by one thread tests a block of row entries for
-    // contact first and evaluates the touching ones after (the default), or evaluates each entry
-    // as it reaches it. The same bits either way (ContactArgs::walk_touching_first).
-    if (const char* wc = std::getenv("BIODEM_GPU_WALK_COMPACT"); wc && *wc) {
-      if (std::string(wc) != "0" && std::string(wc) != "1")
-        throw Error("BIODEM_GPU_WALK_COMPACT = '" + std::string(wc) + "': expected 0 or 1");
-      walk_touching_first_ = std::string(wc) == "1";
-    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -322,7 +314,7 @@ class Engine final : public DeviceEngine {
       return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
              " choice(s) in the run so far)";
     const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
-    return set + (use_entry_kernels() ? std::string() : walk_single() ? std::string(" in one thread per sphere") + (walk_touching_first_ ? ", touching entries first" : "") : " with " + System::walk_lanes()) +
+    return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
@@ -678,7 +670,6 @@ class Engine final : public DeviceEngine {
   /// the lower-id entries in index order, rebuilt at each list build; its capacity grows only
   /// (the CUDA graphs hold its address), with an eighth to spare.
   bool compact_pairs_ = true;
-  bool walk_touching_first_ = true;  // ContactArgs::walk_touching_first (BIODEM_GPU_WALK_COMPACT)
   std::uint64_t row_entries_ = 0;          // entries of all rows at the last build (each pair twice)
   std::uint64_t near_wall_slots_ = 0;      // wall slots within reach at the last build
   vec<std::uint32_t> pair_k_, pair_j_, pair_offset_;  // the listed entries, their neighbours (same capacity)
@@ -1307,7 +1298,6 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   c.dt = dt_;
   c.wall_rolling_lab = host_.wall_rolling_lab();
   c.halt = halt;
-  c.walk_touching_first = walk_touching_first_;
   return c;
 }
 

@@ -601,14 +601,6 @@ struct OneLane {
   BIODEM_HD std::uint32_t ballot(bool b) const { return b ? 1u : 0u; }  // bit l: lane l's b
   BIODEM_HD void sync() const {}
 };
-/// The index of the lowest set bit of v (v != 0).
-BIODEM_HD inline std::uint32_t lowest_bit(std::uint32_t v) {
-#if defined(__CUDA_ARCH__)
-  return static_cast<std::uint32_t>(__ffs(static_cast<int>(v)) - 1);
-#else
-  return static_cast<std::uint32_t>(__builtin_ctz(v));
-#endif
-}
 BIODEM_HD inline std::uint32_t count_bits(std::uint32_t v) {
   std::uint32_t c = 0;
   for (; v; v &= v - 1u) ++c;
@@ -855,10 +847,6 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
-  /// The walk by one thread (Forces::walk_prefetched) tests a block of up to 32 row entries for
-  /// contact first, then evaluates the touching ones of the block in row order
-  /// (BIODEM_GPU_WALK_COMPACT=1, the default), instead of evaluating each entry as it reaches it.
-  bool walk_touching_first = true;
   /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
   /// (LowerSide, WallSlotNear, ScatterFlagged): the per-contact passes launch one thread per
   /// listed entry (`cap` threads, those from `*count` on loading their slot, then doing nothing)
@@ -928,43 +916,6 @@ struct ContactArgs {
   };
   BIODEM_HD EntryHead entry_head(std::uint32_t k) const { return EntryHead{rows.j[k], rows.sid[k], rows.touching[k] != 0}; }
 
-  /// The centre-to-centre vector of entry k's pair from its lower-id sphere i (centre pi) to the
-  /// other (pj), with the entry's periodic image (a_low: the row's sphere is i).
-  BIODEM_HD Vec3 pair_offset(std::uint32_t k, bool a_low, const Vec3& pi, const Vec3& pj) const {
-    Vec3 d = pi - pj;
-    if (periodic) {
-      const std::int32_t c = rows.image[k];
-      const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
-      const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
-      const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
-      d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
-                static_cast<double>(sz) * period.z};
-    }
-    return d;
-  }
-
-  /// pair_entry_from's cut-off test alone, for entry k of sphere a's row from its head e, with
-  /// a's centre pa and radius ra loaded once by the caller (nothing in a force kernel writes
-  /// them): true when the spheres touch (the same operations on the same values as the test in
-  /// pair_entry_from, which then evaluates the contact); false when they do not, after what
-  /// pair_entry_from does then (a contact that has ended: its flag and history reset).
-  BIODEM_HD bool pair_touches(const EntryHead& e, std::uint32_t sid_a, std::uint32_t k, const Vec3& pa,
-                              double ra) const {
-    const bool a_low = sid_a < e.sid_b;
-    const Vec3 pb = s.position[e.b];
-    const double rb = s.radius[e.b];
-    const Vec3 d = a_low ? pair_offset(k, true, pa, pb) : pair_offset(k, false, pb, pa);
-    const double dist2 = norm2(d), rsum = a_low ? ra + rb : rb + ra;
-    if (dist2 >= rsum * rsum) {
-      if (e.was_touching) {
-        rows.touching[k] = 0;
-        rows.history[k] = contact::ContactHistory{};
-      }
-      return false;
-    }
-    return true;
-  }
-
   /// Entry k = q * n + a of sphere a's row (sid_a: a's stable id): the pair evaluated from the
   /// side of its lower stable id, with that side's copy of the history in the entry. True when
   /// the spheres touch, with the force on the lower-id sphere (`force_low`), the torque on a
@@ -1002,7 +953,15 @@ struct ContactArgs {
     // (Listed: loaded whatever the flag, in the round of the spheres' loads; a new contact below
     // takes the same value, nothing having written it since.)
     if (Listed || was_touching) h = rows.history[k];
-    const Vec3 d = pair_offset(k, a_low, pi, pj);
+    Vec3 d = pi - pj;
+    if (periodic) {
+      const std::int32_t c = rows.image[k];
+      const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
+      const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
+      const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
+      d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
+                static_cast<double>(sz) * period.z};
+    }
     const double dist2 = norm2(d), rsum = ri + rj;
     if (dist2 >= rsum * rsum) {
       if (was_touching) {
@@ -1467,55 +1426,19 @@ struct Forces : ContactArgs {
   /// That walk for W, Forces or a kernel derived from it: W::walk_end ends it. Sums: how the
   /// contacts are added (OrderedWalkSums: in walk order as doubles, walk_add; FixedWalkSums: as
   /// fixed-point integers, the order-free family).
-  ///
-  /// With walk_touching_first (the default) the row goes in blocks of up to 32 entries: each
-  /// entry of the block is tested for contact (pair_touches: its head, the neighbour's centre
-  /// and radius; an ended contact reset), then the touching ones are evaluated in row order
-  /// (pair_entry_from, whose test passes again with the same bits). Non-touching entries add
-  /// nothing to the sums, so the sums are the same bits; what changes is a warp's work: walking
-  /// entry by entry, a warp runs the long path of a touching contact at every entry where any of
-  /// its 32 spheres touches (ncu, lease 9: 13.8 of 32 threads active in the raw drum's walk);
-  /// touching entries first, it runs it as often as its sphere with the most contacts in the
-  /// block needs.
   template <class W, class Sums = OrderedWalkSums>
   BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a, Sums sums = Sums{}) {
     if (halted(w.halt)) return;
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
-    auto evaluate = [&](std::uint32_t v, const EntryHead& e) {
+    for (std::uint32_t v = 0; v < len; ++v) {
+      const EntryHead e = next;
+      if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
       RowContact r;
       bool a_low = false;
       if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
         r.kind = a_low ? 1 : 2;
       sums.add(r);
-    };
-    if (w.walk_touching_first) {
-      const Vec3 pa = w.s.position[a];
-      const double ra = w.s.radius[a];
-      for (std::uint32_t v0 = 0; v0 < len; v0 += 32) {
-        const std::uint32_t end = len - v0 < 32 ? len : v0 + 32;
-        std::uint32_t touching = 0;  // bit v - v0: entry v touches
-        for (std::uint32_t v = v0; v < end; ++v) {
-          const EntryHead e = next;
-          if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-          if (w.pair_touches(e, sid_a, v * w.n + a, pa, ra)) touching |= 1u << (v - v0);
-        }
-        // the touching entries in row order, each head loaded one touching entry ahead
-        EntryHead head = touching ? w.entry_head((v0 + lowest_bit(touching)) * w.n + a) : EntryHead{};
-        while (touching) {
-          const std::uint32_t v = v0 + lowest_bit(touching);
-          touching &= touching - 1u;
-          const EntryHead e = head;
-          if (touching) head = w.entry_head((v0 + lowest_bit(touching)) * w.n + a);
-          evaluate(v, e);
-        }
-      }
-    } else {
-      for (std::uint32_t v = 0; v < len; ++v) {
-        const EntryHead e = next;
-        if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-        evaluate(v, e);
-      }
     }
     const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) sums.add(w.walk_entry(st, v));
