@@ -172,14 +172,6 @@ class Engine final : public DeviceEngine {
       if (v != "compact" && v != "full") throw Error("BIODEM_GPU_PAIR_LIST = '" + v + "': expected compact or full");
       compact_pairs_ = v == "compact";
     }
-    // BIODEM_GPU_PREFETCH=N (0-3, bits): 1, the clumps' body kernel hints its spheres' offsets
-    // into L1 early (ReduceKickDrift::prefetch_offsets); 2, the walk by one thread hints the next
-    // entry's data (ContactArgs::prefetch_walk). Hints only: the same bits whatever N.
-    if (const char* pf = std::getenv("BIODEM_GPU_PREFETCH"); pf && *pf) {
-      const std::string v(pf);
-      if (v.size() != 1 || v[0] < '0' || v[0] > '3') throw Error("BIODEM_GPU_PREFETCH = '" + v + "': expected 0, 1, 2 or 3");
-      prefetch_ = static_cast<std::uint32_t>(v[0] - '0');
-    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -678,7 +670,6 @@ class Engine final : public DeviceEngine {
   /// the lower-id entries in index order, rebuilt at each list build; its capacity grows only
   /// (the CUDA graphs hold its address), with an eighth to spare.
   bool compact_pairs_ = true;
-  std::uint32_t prefetch_ = 0;  // BIODEM_GPU_PREFETCH: bit 1 body offsets, bit 2 walk
   std::uint64_t row_entries_ = 0;          // entries of all rows at the last build (each pair twice)
   std::uint64_t near_wall_slots_ = 0;      // wall slots within reach at the last build
   vec<std::uint32_t> pair_k_, pair_j_, pair_offset_;  // the listed entries, their neighbours (same capacity)
@@ -1307,7 +1298,6 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   c.dt = dt_;
   c.wall_rolling_lab = host_.wall_rolling_lab();
   c.halt = halt;
-  c.prefetch_walk = (prefetch_ & 2u) != 0;
   return c;
 }
 
@@ -1370,8 +1360,7 @@ inline void Engine::second_half() {
 }
 
 inline void Engine::fused_unit(bool from_second) {
-  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt(), centred_spheres_,
-                            (prefetch_ & 1u) != 0};
+  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt(), centred_spheres_};
   if (fixed_sums_ && entries_ready()) {  // the order-free family: the sums inside the body kernel
     const ContactArgs c = contact_args(halt());
     const FixedSumArrays fx = fixed_arrays();

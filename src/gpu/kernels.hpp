@@ -83,16 +83,6 @@ BIODEM_HD inline int image_component(std::int32_t c, int axis) {
 /// so the state stays that of the step that met it. Null (set-up evaluations): never halted.
 BIODEM_HD inline bool halted(const std::uint32_t* halt) { return halt && *halt; }
 
-/// A hint that the bytes at p will be read soon (CUDA: prefetch.global.L1, no register written,
-/// nothing waits for it; elsewhere nothing). No value changes (BIODEM_GPU_PREFETCH).
-BIODEM_HD inline void prefetch_l1(const void* p) {
-#if defined(__CUDA_ARCH__)
-  asm volatile("prefetch.global.L1 [%0];" ::"l"(p));
-#else
-  (void)p;
-#endif
-}
-
 /// Sphere i of body k from the body (centre, velocity, spin); R is the body's rotation matrix.
 BIODEM_HD inline void sphere_from_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, std::uint32_t i,
                                        const Mat3& R) {
@@ -857,10 +847,6 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
-  /// The walk by one thread (Forces::walk_prefetched) loads the entry heads two ahead and hints
-  /// the next entry's sphere data and history into L1 (prefetch_l1) before evaluating the
-  /// current one (BIODEM_GPU_PREFETCH bit 2). The same loads and values.
-  bool prefetch_walk = false;
   /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
   /// (LowerSide, WallSlotNear, ScatterFlagged): the per-contact passes launch one thread per
   /// listed entry (`cap` threads, those from `*count` on loading their slot, then doing nothing)
@@ -1445,38 +1431,14 @@ struct Forces : ContactArgs {
     if (halted(w.halt)) return;
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
-    if (w.prefetch_walk) {
-      // Heads two entries ahead; the next entry's neighbour data and history hinted into L1
-      // from its head (loaded an entry ago), so that its round of loads finds them there.
-      EntryHead after = 1 < len ? w.entry_head(w.n + a) : EntryHead{};
-      for (std::uint32_t v = 0; v < len; ++v) {
-        const EntryHead e = next;
-        next = after;
-        if (v + 2 < len) after = w.entry_head((v + 2) * w.n + a);
-        if (v + 1 < len) {
-          const std::uint32_t b = next.b;
-          prefetch_l1(&w.s.position[b]);
-          prefetch_l1(&w.s.velocity[b]);
-          prefetch_l1(&w.s.omega[b]);
-          prefetch_l1(&w.s.radius[b]);
-          prefetch_l1(&w.rows.history[(v + 1) * w.n + a]);
-        }
-        RowContact r;
-        bool a_low = false;
-        if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
-          r.kind = a_low ? 1 : 2;
-        sums.add(r);
-      }
-    } else {
-      for (std::uint32_t v = 0; v < len; ++v) {
-        const EntryHead e = next;
-        if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-        RowContact r;
-        bool a_low = false;
-        if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
-          r.kind = a_low ? 1 : 2;
-        sums.add(r);
-      }
+    for (std::uint32_t v = 0; v < len; ++v) {
+      const EntryHead e = next;
+      if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
+      RowContact r;
+      bool a_low = false;
+      if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
+        r.kind = a_low ? 1 : 2;
+      sums.add(r);
     }
     const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) sums.add(w.walk_entry(st, v));
@@ -1577,9 +1539,6 @@ struct ReduceKickDrift {
   double h, dt;
   const std::uint32_t* halt;
   bool centred = false;  // every body is one sphere at its centre (spheres_of_body)
-  /// The spheres' body-frame offsets, read at the very end (spheres_of_body, after the body's
-  /// stores), hinted into L1 once the body's first sphere is known (BIODEM_GPU_PREFETCH bit 1).
-  bool prefetch_offsets = false;
   /// The rest of body k's step from its force and torque: both stored, the second half kick of
   /// step c, then the half kick, drift and turn of step c + 1 in registers, the state stored once.
   BIODEM_HD void finish(std::uint32_t k, BodyState st, const Vec3& f, const Vec3& t) const {
@@ -1605,8 +1564,6 @@ struct ReduceKickDrift {
     // Every load of the body's state before the first store (its force), so that none waits
     // behind a store it might alias; then the halves in registers and the state stored once.
     const BodyState st = load_body(b, k);
-    if (prefetch_offsets)
-      for (std::uint32_t c = 0; c < st.ns && c < 4; ++c) prefetch_l1(&s.offset[st.s0 + c]);
     Vec3 f, t;
     body_sums(b, s, k, gravity, f, t);
     finish(k, st, f, t);

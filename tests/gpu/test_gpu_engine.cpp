@@ -1746,37 +1746,3 @@ TEST(GpuEngine, EmptySceneAfterAFullOneRunsWithThePairList) {
     EXPECT_EQ(e->advance(5).steps, 5u);
   }
 }
-
-// The prefetch hints (BIODEM_GPU_PREFETCH=3: the clumps' body kernel hints its spheres' offsets
-// into L1; the walk by one thread loads its entry heads two ahead and hints the next entry's
-// data) change no value: runs with and without them are bit-identical after every run, across
-// list checks, rebuilds, a criterion phase and an upload, with the row walk forced. Scenes: the
-// packing (needles, a turning cylinder, periodic along z), the compressed bed and the box
-// periodic on three axes whose rows outgrow 48 entries. On CPU threads the hints are no-ops, so
-// this checks the walk's heads two ahead; on a GPU (BIODEM_TEST_GPU=1) the hints too. It fails
-// when a head is used one entry late (checked).
-TEST(GpuEngine, PrefetchHintsGiveTheSameBits) {
-  for (const int scene : {0, 1, 2}) {
-    const char* names[] = {"packing", "compressed bed", "periodic box, rows past 48 entries"};
-    SCOPED_TRACE(names[scene]);
-    auto make = [scene] { return scene == 1 ? compressed_bed() : scene == 2 ? periodic_box(3.4e-3) : packing(0.5e-3); };
-    auto a = make(), b = make();
-    ::setenv("BIODEM_GPU_PREFETCH", "3", 1);
-    auto ea = gpu_engine(*a);
-    ::setenv("BIODEM_GPU_PREFETCH", "0", 1);
-    auto eb = gpu_engine(*b);
-    ::unsetenv("BIODEM_GPU_PREFETCH");
-    for (auto* e : {ea.get(), eb.get()}) {
-      e->set_entry_forces(false);
-      e->set_check_every(3);
-      e->upload();
-    }
-    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true);
-    std::printf("[measured] prefetch hints on vs off (%s): %llu steps, %llu list builds, row capacity %u, %zu contacts "
-                "at the end; bit-identical after every run\n",
-                names[scene], static_cast<unsigned long long>(steps),
-                static_cast<unsigned long long>(ea->list_builds()), ea->row_capacity(), a->contact_count());
-    EXPECT_EQ(ea->entry_force_passes(), 0u);
-    EXPECT_GT(a->contact_count(), 2u);
-  }
-}
