@@ -33,6 +33,7 @@ struct Camera {
   int width = 720, height = 540;
   double cx = 391.3, cy = 258.6, radius = 230.0;
   double light = 230.0, vignette = 0.40, noise_sigma = 6.0;
+  double powder = 0.09;  // the part of the light the bed passes
   bool dust = true;
 };
 
@@ -58,7 +59,7 @@ cv::Mat camera_frame(const Camera& c, const cv::Mat& bed, std::uint64_t seed) {
       double v = 40.0;
       if (rr <= 1.0) {
         const double lit = c.light * (1.0 - c.vignette * rr * rr);
-        v = bed.at<std::uint8_t>(i, j) ? 0.09 * lit : lit;
+        v = bed.at<std::uint8_t>(i, j) ? c.powder * lit : lit;
       }
       v += rng.gaussian(c.noise_sigma);
       img.at<std::uint8_t>(i, j) = cv::saturate_cast<std::uint8_t>(v);
@@ -151,6 +152,46 @@ TEST(VideoRealFrames, UnevenBackLightAndEmptyDrum) {
   const cv::Mat empty = gradient(cv::Mat::zeros(c.height, c.width, CV_8UC1), 4);
   const FrameMeasure e = measure_backlit_frame(empty, find_drum_disc(empty), FrameParams{});
   EXPECT_FALSE(e.has_powder) << e.powder_px << " px";
+}
+
+// A grey bed (passing 30 % or 45 % of the light instead of 9 %) under the 40 % vignetting: the
+// back-light fitted to the frame itself (estimate_illumination) must follow the lit disc under
+// the bed, not the bed: Otsu's split of the disc's samples picks the lit ones. Tolerance: the
+// fitted light within 3 % of the drawn light at every pixel under the bed (inside 97 % of the
+// radius), alpha within 0.05 deg of the drawn bed. It fails with the first fit over every sample
+// instead of Otsu's lit ones (84-99 % off under the bed, checked); without the refit on the
+// samples above 70 % of the first fit it still passes (0.93 %: these frames leave no grey lit
+// sample for the refit to drop). Beds passing over half the light are beyond this fit
+// (docs/analysis.md).
+TEST(VideoRealFrames, GreyBedFittedBackLightFollowsTheLitDisc) {
+  Camera c;
+  c.dust = false;
+  const cv::Mat bed = bed_mask(c, 30.0, -40.0);
+  const double drawn = test::mask_alpha_deg(bed, c.cx, c.cy);
+  for (const double powder : {0.30, 0.45}) {
+    c.powder = powder;
+    const cv::Mat img = camera_frame(c, bed, 21);
+    const DrumDisc d = find_drum_disc(img);
+    const cv::Mat light = estimate_illumination(img, d);
+    double worst = 0.0;
+    std::size_t under = 0;
+    for (int i = 0; i < img.rows; ++i)
+      for (int j = 0; j < img.cols; ++j) {
+        const double rr = std::hypot(j - c.cx, i - c.cy) / c.radius;
+        if (rr > 0.97 || !bed.at<std::uint8_t>(i, j)) continue;
+        const double truth = c.light * (1.0 - c.vignette * rr * rr);
+        worst = std::max(worst, std::abs(light.at<float>(i, j) / truth - 1.0));
+        ++under;
+      }
+    const FrameMeasure m = measure_backlit_frame(img, d, FrameParams{});
+    std::printf("[measured] bed passing %.0f %% of the light: fitted back-light under the bed within %.2f %% of the "
+                "drawn one (%zu px), alpha %.3f deg against %.3f drawn\n",
+                100.0 * powder, 100.0 * worst, under, m.alpha_deg, drawn);
+    EXPECT_GT(under, 10000u);
+    EXPECT_LT(worst, 0.03) << "bed passing " << powder;
+    ASSERT_TRUE(m.has_powder) << "bed passing " << powder;
+    EXPECT_NEAR(m.alpha_deg, drawn, 0.05) << "bed passing " << powder;
+  }
 }
 
 // A synthetic film written with OpenCV (MJPG in .avi, available in Debian's OpenCV) gives the
