@@ -114,3 +114,29 @@ TEST(RegionInsertion, PackedCylinderOrAnError) {
   EXPECT_NE(r.status, 0);
   EXPECT_NE(r.output.find("[insertion] count = 100: only"), std::string::npos) << r.output;
 }
+
+// A pour that the region cannot take stops after three waves in a row that placed nothing, with
+// one line naming the key, and not before: without gravity nothing leaves the box region, which
+// random insertion fills with 235 beads in the first wave; later waves find the odd gap (waves 2,
+// 3 and 5 place one or two), so the count of empty waves restarts after a wave that placed some,
+// and the run stops at wave 8, the third empty one after wave 5. It fails when the rule needs
+// four empty waves, or when a wave that places some does not restart the count (checked).
+TEST(RegionInsertion, ThreeEmptyWavesInARowStopThePour) {
+  std::string text = variant("count = 300", "count = 1000\nwave_fall_s = 0.002");
+  text.replace(text.find("seed = 5"), 8, "seed = 5\ngravity_m_s2 = [0.0, 0.0, 0.0]");
+  const std::string d = fresh_dir("empty_waves");
+  std::filesystem::create_directories(d);
+  { std::ofstream(d + "/case.toml") << text; }
+  const auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.output.find("biodem: error: [insertion] count = 1000: only "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("particles could be inserted into the region (three insertion waves in a row placed none)"),
+            std::string::npos)
+      << r.output;
+  const std::string log = slurp(d + "/out/run.log");
+  std::printf("[measured] %s", log.substr(log.find("insertion wave 1 ")).c_str());
+  EXPECT_NE(log.find("insertion wave 5 at t = "), std::string::npos) << log;
+  EXPECT_EQ(log.find("insertion wave 5 at t = 0.00798 s: 0 particles"), std::string::npos) << log;
+  EXPECT_NE(log.find("insertion wave 8 at t = 0.013965 s: 0 particles"), std::string::npos) << log;
+  EXPECT_EQ(log.find("insertion wave 9 "), std::string::npos) << log;
+}
