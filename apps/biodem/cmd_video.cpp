@@ -33,6 +33,10 @@ namespace biodem::cli {
 
 namespace {
 
+// Beds passing more than this part of the light, measured with a back-light fitted to each frame,
+// are warned about (docs/analysis.md, video limits).
+constexpr double kGreyBed = 0.5;
+
 namespace fs = std::filesystem;
 
 struct VideoOptions {
@@ -207,6 +211,7 @@ int run_video(const VideoOptions& o) {
   output::SeriesWriter writer(out_dir / "series.csv", false);
   NameList unreadable, wrong_size, empty;
   std::size_t total = 0, measured = 0;
+  std::vector<double> bed_light;  // FrameMeasure::bed_light of the frames with powder
   output::Progress progress(std::cerr, output::Progress::stderr_is_terminal(), 5.0);
   const std::size_t batch = 16 * static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
   std::vector<analysis::VideoFrame> frames;
@@ -260,6 +265,7 @@ int run_video(const VideoOptions& o) {
       }
       if (!m.has_powder) empty.add(f.name);
       else ++measured;
+      if (m.has_powder && std::isfinite(m.bed_light)) bed_light.push_back(m.bed_light);
       output::SeriesRow row;
       row.time_s = static_cast<double>(f.index) / o.fps;
       row.revolution = o.rpm * row.time_s / 60.0;
@@ -288,6 +294,18 @@ int run_video(const VideoOptions& o) {
   if (!empty.empty())
     std::cerr << "warning: no powder found in " << empty.size() << " frame(s) (alpha left empty): "
               << empty.str() << "\n";
+  // A bed passing over half the light cannot be told from the vignetting by a back-light fitted to
+  // each frame (docs/analysis.md): the bed may then be found only in part.
+  if (params.illumination.empty() && !bed_light.empty()) {
+    std::nth_element(bed_light.begin(), bed_light.begin() + static_cast<std::ptrdiff_t>(bed_light.size() / 2),
+                     bed_light.end());
+    const double passes = bed_light[bed_light.size() / 2];
+    if (passes > kGreyBed)
+      std::cerr << "warning: the bed passes " << fmt(100.0 * passes, "%.0f")
+                << " % of the light (median over the frames); a back-light fitted to each frame cannot tell a "
+                   "bed passing over half the light from the vignetting, so alpha and the surface may come from "
+                   "part of the bed: give --background (a frame of the empty, lit drum)\n";
+  }
   if (measured == 0) throw Error("no frame in '" + o.frames + "' showed powder in the drum disc");
   std::cout << "wrote " << writer.path().string() << " (" << measured << " frames, "
             << fmt(static_cast<double>(total) / o.fps, "%.3g") << " s at " << fmt(o.fps, "%g")

@@ -372,10 +372,11 @@ cv::Mat flat_field(const cv::Mat& gray, const cv::Mat& illumination) {
 }
 
 cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams& params,
-                    int* threshold_used) {
+                    int* threshold_used, double* bed_light) {
   const cv::Mat inside = disc_mask(gray.size(), disc, rim_margin(params, disc));
+  if (bed_light) *bed_light = kNaN;
   int t;
-  cv::Mat dark;
+  cv::Mat dark, corrected;
   if (params.threshold) {
     t = *params.threshold;
     cv::compare(gray, cv::Scalar(t), dark, cv::CMP_LE);
@@ -383,7 +384,7 @@ cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams
     const cv::Mat light = params.illumination.empty()
                               ? estimate_illumination(gray, disc, rim_margin(params, disc))
                               : params.illumination;
-    const cv::Mat corrected = flat_field(gray, light);
+    corrected = flat_field(gray, light);
     double m0 = kNaN, m1 = kNaN;
     t = otsu_threshold(corrected, inside, &m0, &m1);
     if (!(m1 - m0 >= params.min_contrast)) t = -1;  // uniform disc: no powder
@@ -426,6 +427,7 @@ cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams
   std::vector<std::vector<cv::Point>> outline;
   cv::findContours(mask.clone(), outline, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
   cv::drawContours(mask, outline, -1, cv::Scalar(255), cv::FILLED);
+  if (bed_light && !corrected.empty()) *bed_light = cv::mean(corrected, mask)[0] / kLitLevel;
   return mask;
 }
 
@@ -443,7 +445,7 @@ FrameMeasure measure_backlit_frame(const cv::Mat& gray, const DrumDisc& disc,
   FrameMeasure fm;
   fm.alpha_deg = kNaN;
   fm.surface = SurfaceFit{kNaN, kNaN, 0, false};
-  const cv::Mat mask = powder_mask(gray, disc, params, &fm.threshold);
+  const cv::Mat mask = powder_mask(gray, disc, params, &fm.threshold, &fm.bed_light);
   fm.powder_px = static_cast<std::size_t>(cv::countNonZero(mask));
   if (fm.powder_px == 0) return fm;
   fm.has_powder = true;

@@ -5,6 +5,7 @@
 // down); measures are converted to drum-centred coordinates with y up.
 #pragma once
 #include <cstddef>
+#include <limits>
 #include <optional>
 
 #include <opencv2/core.hpp>
@@ -47,6 +48,9 @@ struct FrameMeasure {
   SurfaceFit surface;
   std::size_t powder_px = 0;
   int threshold = -1;       // grey level used
+  double bed_light = std::numeric_limits<double>::quiet_NaN();  // the part of the light the bed
+                            // passes: its mean flat-field corrected level over kLitLevel (NaN
+                            // with a raw threshold or without powder)
 };
 
 /// Otsu threshold of the pixels where mask != 0; also returns the two class means.
@@ -78,8 +82,9 @@ cv::Mat flat_field(const cv::Mat& gray, const cv::Mat& illumination);
 /// noise, JPEG blocks, pinholes) and the largest 8-connected region (the bed: dust specks on the
 /// end plates and grains in flight are dropped) with its holes filled; `threshold_used` receives the grey level, -1 when
 /// the disc shows no contrast (no powder).
+/// `bed_light` (when given) receives FrameMeasure::bed_light of the mask.
 cv::Mat powder_mask(const cv::Mat& gray, const DrumDisc& disc, const FrameParams& params,
-                    int* threshold_used = nullptr);
+                    int* threshold_used = nullptr, double* bed_light = nullptr);
 
 /// alpha (SPEC 6) of the area centroid of a powder mask; NaN if the mask is empty.
 double mask_centroid_angle_deg(const cv::Mat& mask, const DrumDisc& disc, Rotation rotation);

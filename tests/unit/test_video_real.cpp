@@ -191,6 +191,58 @@ TEST(VideoRealFrames, GreyBedFittedBackLightFollowsTheLitDisc) {
     EXPECT_LT(worst, 0.03) << "bed passing " << powder;
     ASSERT_TRUE(m.has_powder) << "bed passing " << powder;
     EXPECT_NEAR(m.alpha_deg, drawn, 0.05) << "bed passing " << powder;
+    EXPECT_NEAR(m.bed_light, powder, 0.02) << "bed passing " << powder;  // (measured: FrameMeasure::bed_light)
+  }
+}
+
+// A bed passing over half the light, without --background: `biodem video` measures the frames
+// and says on stderr that the bed passes that part of the light and that --background is needed
+// (the per-frame back-light fit cannot tell such a bed from the vignetting: docs/analysis.md);
+// not for a bed passing 45 %, nor with --background. The bed's measured part of the light
+// (FrameMeasure::bed_light) is near the drawn one at 9 % and 45 %, and above it at 55 % (the fit
+// pulled towards the bed makes the bed look brighter). It fails with the
+// warning's limit at 0.4 or 0.8 instead of 0.5, and when the warning is given with --background
+// too (checked).
+TEST(VideoRealFrames, GreyBedWithoutBackgroundIsWarnedAbout) {
+  test::TempDir dir("grey_bed");
+  Camera c;
+  c.width = 320;
+  c.height = 240;
+  c.cx = 170.4;
+  c.cy = 118.2;
+  c.radius = 105.0;
+  c.dust = false;
+  const cv::Mat bed = bed_mask(c, 30.0, -20.0);
+  cv::imwrite((dir / "empty.png").string(), camera_frame(c, cv::Mat::zeros(c.height, c.width, CV_8UC1), 5));
+  for (const double powder : {0.09, 0.45, 0.55}) {
+    c.powder = powder;
+    const std::string tag = std::to_string(static_cast<int>(std::lround(100 * powder)));
+    const fs::path frames = dir / ("frames_" + tag);
+    fs::create_directories(frames);
+    for (int k = 0; k < 4; ++k) {
+      char name[16];
+      std::snprintf(name, sizeof name, "f%d.png", k);
+      ASSERT_TRUE(cv::imwrite((frames / name).string(), camera_frame(c, bed, 40 + static_cast<std::uint64_t>(k))));
+    }
+    const cv::Mat one = camera_frame(c, bed, 40);
+    const FrameMeasure m = measure_backlit_frame(one, find_drum_disc(one), FrameParams{});
+    std::printf("[measured] bed passing %.0f %% of the light: FrameMeasure::bed_light %.3f\n", 100 * powder, m.bed_light);
+    if (powder < 0.5) {
+      EXPECT_NEAR(m.bed_light, powder, 0.05) << "bed passing " << powder;
+    } else {  // the first fit, pulled down by the bed, makes it look brighter still
+      EXPECT_GT(m.bed_light, 0.5) << "bed passing " << powder;
+    }
+    const auto v = test::run_biodem("video " + test::quote(frames) + " --fps 25 --rpm 1 --quiet --out " +
+                                    test::quote(dir / ("v" + tag)));
+    ASSERT_EQ(v.status, 0) << v.output;
+    const bool warned = contains(v.output, "warning: the bed passes ") && contains(v.output, "give --background");
+    EXPECT_EQ(warned, powder > 0.5) << "bed passing " << powder << ": " << v.output;
+    if (powder > 0.5) {
+      const auto b = test::run_biodem("video " + test::quote(frames) + " --fps 25 --rpm 1 --quiet --background " +
+                                      test::quote(dir / "empty.png") + " --out " + test::quote(dir / ("b" + tag)));
+      ASSERT_EQ(b.status, 0) << b.output;
+      EXPECT_FALSE(contains(b.output, "warning: the bed passes")) << b.output;
+    }
   }
 }
 
