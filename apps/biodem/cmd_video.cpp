@@ -33,8 +33,9 @@ namespace biodem::cli {
 
 namespace {
 
-// Beds passing more than this part of the light, measured with a back-light fitted to each frame,
-// are warned about (docs/analysis.md, video limits).
+// Beds that look brighter than this part of the lit drum (FrameMeasure::bed_light, median over the
+// frames), measured with a back-light fitted to each frame, are warned about (docs/analysis.md,
+// video limits).
 constexpr double kGreyBed = 0.5;
 
 namespace fs = std::filesystem;
@@ -297,14 +298,14 @@ int run_video(const VideoOptions& o) {
   // A bed passing over half the light cannot be told from the vignetting by a back-light fitted to
   // each frame (docs/analysis.md): the bed may then be found only in part.
   if (params.illumination.empty() && !bed_light.empty()) {
-    std::nth_element(bed_light.begin(), bed_light.begin() + static_cast<std::ptrdiff_t>(bed_light.size() / 2),
-                     bed_light.end());
-    const double passes = bed_light[bed_light.size() / 2];
-    if (passes > kGreyBed)
-      std::cerr << "warning: the bed passes " << fmt(100.0 * passes, "%.0f")
-                << " % of the light (median over the frames); a back-light fitted to each frame cannot tell a "
-                   "bed passing over half the light from the vignetting, so alpha and the surface may come from "
-                   "part of the bed: give --background (a frame of the empty, lit drum)\n";
+    std::sort(bed_light.begin(), bed_light.end());
+    const std::size_t h = bed_light.size() / 2;
+    const double level = bed_light.size() % 2 ? bed_light[h] : 0.5 * (bed_light[h - 1] + bed_light[h]);
+    if (level > kGreyBed)
+      std::cerr << "warning: the bed looks " << fmt(100.0 * level, "%.0f")
+                << " % as bright as the lit drum (median over the frames); a back-light fitted to each frame cannot "
+                   "tell a bed passing over half the light from the vignetting, so alpha and the surface may come "
+                   "from part of the bed: give --background (a frame of the empty, lit drum)\n";
   }
   if (measured == 0) throw Error("no frame in '" + o.frames + "' showed powder in the drum disc");
   std::cout << "wrote " << writer.path().string() << " (" << measured << " frames, "

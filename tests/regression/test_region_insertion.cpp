@@ -134,9 +134,11 @@ TEST(RegionInsertion, ThreeEmptyWavesInARowStopThePour) {
             std::string::npos)
       << r.output;
   const std::string log = slurp(d + "/out/run.log");
-  std::printf("[measured] %s", log.substr(log.find("insertion wave 1 ")).c_str());
-  EXPECT_NE(log.find("insertion wave 5 at t = "), std::string::npos) << log;
-  EXPECT_EQ(log.find("insertion wave 5 at t = 0.00798 s: 0 particles"), std::string::npos) << log;
+  const auto first = log.find("insertion wave 1 ");
+  ASSERT_NE(first, std::string::npos) << log;
+  std::printf("[measured] %s", log.substr(first).c_str());
+  EXPECT_NE(log.find("insertion wave 4 at t = 0.005985 s: 0 particles"), std::string::npos) << log;
+  EXPECT_NE(log.find("insertion wave 5 at t = 0.00798 s: 1 particles"), std::string::npos) << log;
   EXPECT_NE(log.find("insertion wave 8 at t = 0.013965 s: 0 particles"), std::string::npos) << log;
   EXPECT_EQ(log.find("insertion wave 9 "), std::string::npos) << log;
 }
