@@ -20,6 +20,17 @@
 
 using namespace biodem;
 
+namespace {
+/// A spherical shape of 1 mm (the insertion tests' bead).
+config::Shape bead_1mm(const char* name) {
+  config::Shape shape;
+  shape.name = name;
+  shape.kind = config::ShapeKind::Sphere;
+  shape.diameter_m = 1e-3;
+  return shape;
+}
+}  // namespace
+
 TEST(Random, EngineIsTheStandardMt19937_64) {
   std::mt19937_64 g;  // default seed 5489: the 10000th output is fixed by the standard
   g.discard(9999);
@@ -104,10 +115,7 @@ TEST(Random, GoldenInsertedPositionsForASeed) {
 // fits spends max_attempts trials for every request still to place (3 draws each for a sphere:
 // radius, angle, z), not max_attempts in all; a wave that fits has the same draws as before.
 TEST(Random, InsertionWaveSharesItsTrialsAcrossRequests) {
-  config::Shape sphere;
-  sphere.name = "sphere";
-  sphere.kind = config::ShapeKind::Sphere;
-  sphere.diameter_m = 1e-3;
+  const config::Shape sphere = bead_1mm("sphere");
   contact::PairTable pairs(1);
   const auto todo = std::vector<scenario::InsertionRequest>(8, scenario::InsertionRequest{0, 0});
   {
@@ -149,10 +157,7 @@ TEST(Random, InsertionWaveSharesItsTrialsAcrossRequests) {
 // domain (exact). The check is not vacuous: some sphere pairs lie within 0.3 mm of contact
 // across the seam.
 TEST(RegionInsertion, PeriodicDrumInsertionHasNoOverlapAcrossTheSeam) {
-  config::Shape bead;
-  bead.name = "bead";
-  bead.kind = config::ShapeKind::Sphere;
-  bead.diameter_m = 1e-3;
+  const config::Shape bead = bead_1mm("bead");
   contact::PairTable pairs(1);
   sim::Simulation s({shapes::make_template(bead, 1.0)}, {1000.0}, pairs, 1e-6, {0, 0, -9.81});
   std::mt19937_64 rng(7);

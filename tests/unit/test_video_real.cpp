@@ -77,6 +77,17 @@ cv::Mat camera_frame(const Camera& c, const cv::Mat& bed, std::uint64_t seed) {
   return img;
 }
 
+// A 320 x 240 frame with the drum off-centre (radius 105 px): the films of the CLI tests.
+Camera small_camera() {
+  Camera c;
+  c.width = 320;
+  c.height = 240;
+  c.cx = 170.4;
+  c.cy = 118.2;
+  c.radius = 105.0;
+  return c;
+}
+
 cv::Mat jpeg(const cv::Mat& img, int quality) {
   std::vector<std::uint8_t> buf;
   cv::imencode(".jpg", img, buf, {cv::IMWRITE_JPEG_QUALITY, quality});
@@ -205,12 +216,7 @@ TEST(VideoRealFrames, GreyBedFittedBackLightFollowsTheLitDisc) {
 // too (checked).
 TEST(VideoRealFrames, GreyBedWithoutBackgroundIsWarnedAbout) {
   test::TempDir dir("grey_bed");
-  Camera c;
-  c.width = 320;
-  c.height = 240;
-  c.cx = 170.4;
-  c.cy = 118.2;
-  c.radius = 105.0;
+  Camera c = small_camera();
   c.dust = false;
   const cv::Mat bed = bed_mask(c, 30.0, -20.0);
   cv::imwrite((dir / "empty.png").string(), camera_frame(c, cv::Mat::zeros(c.height, c.width, CV_8UC1), 5));
@@ -252,12 +258,7 @@ TEST(VideoRealFrames, GreyBedWithoutBackgroundIsWarnedAbout) {
 // command line, and its errors.
 TEST(VideoRealFrames, VideoFileGivesTheSameSeriesAsItsFrames) {
   test::TempDir dir("video_file");
-  Camera c;
-  c.width = 320;
-  c.height = 240;
-  c.cx = 170.4;
-  c.cy = 118.2;
-  c.radius = 105.0;
+  Camera c = small_camera();
   const fs::path avi = dir / "film.avi", decoded = dir / "decoded";
   std::vector<double> drawn;
   {
