@@ -172,6 +172,17 @@ class Engine final : public DeviceEngine {
       if (v != "compact" && v != "full") throw Error("BIODEM_GPU_PAIR_LIST = '" + v + "': expected compact or full");
       compact_pairs_ = v == "compact";
     }
+    // BIODEM_GPU_RECORDS=1: the contact kernels read each sphere from one 96-byte record
+    // (SphereRecord, kept beside the arrays) instead of six arrays; BIODEM_GPU_OWN_SPHERE=1: the
+    // row walk by one thread loads its own sphere once per row (Forces::walk_own). The same bits
+    // either way; both off by default until timed on a GPU (docs/gpu.md, section 4).
+    for (const auto& [name, flag] : {std::pair<const char*, bool*>{"BIODEM_GPU_RECORDS", &records_},
+                                     std::pair<const char*, bool*>{"BIODEM_GPU_OWN_SPHERE", &own_sphere_}})
+      if (const char* v = std::getenv(name); v && *v) {
+        if (std::string(v) != "0" && std::string(v) != "1")
+          throw Error(std::string(name) + " = '" + v + "': expected 0 or 1");
+        *flag = std::string(v) == "1";
+      }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -285,11 +296,6 @@ class Engine final : public DeviceEngine {
   }
   std::string profile_report() const override;
   std::string contact_kernels() const override {
-    auto us = [](double seconds) {
-      char b[32];
-      std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
-      return std::string(b);
-    };
     std::string fixed_note;
     if (fixed_sums_) {
       char q[96];
@@ -302,6 +308,21 @@ class Engine final : public DeviceEngine {
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
                                                 : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
                                                               : "per-sphere row walk (Forces)";
+    return contact_set(set) + loads_note();
+  }
+  /// How the contact kernels load the spheres, when not as by default.
+  std::string loads_note() const {
+    std::string r;
+    if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
+    if (own_sphere_) r += "; the one-thread walk holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+    return r;
+  }
+  std::string contact_set(const std::string& set) const {
+    auto us = [](double seconds) {
+      char b[32];
+      std::snprintf(b, sizeof b, "%.2f", 1e6 * seconds);
+      return std::string(b);
+    };
     switch (forces_mode_) {
       case ForcesMode::entries: return set + ", set by BIODEM_GPU_FORCES=entries or a test";
       case ForcesMode::rows: return set + ", set by BIODEM_GPU_FORCES=rows or a test";
@@ -368,7 +389,8 @@ class Engine final : public DeviceEngine {
     return {raw<Vec3>(s_pos_),    raw<Vec3>(s_vel_),    raw<Vec3>(s_omega_),       raw<Vec3>(s_offset_),
             raw<Vec3>(s_force_),  raw<Vec3>(s_torque_), raw<Vec3>(s_built_at_),    raw<double>(s_radius_),
             raw<double>(s_bmass_), raw<std::uint32_t>(s_body_), raw<std::uint32_t>(s_material_),
-            raw<std::uint32_t>(s_sid_), raw<std::uint32_t>(s_contacts_)};
+            raw<std::uint32_t>(s_sid_), raw<std::uint32_t>(s_contacts_),
+            records_ ? raw<SphereRecord>(s_rec_) : nullptr};
   }
   struct Rows {
     vec<std::uint32_t> j, sid, mirror;
@@ -429,6 +451,7 @@ class Engine final : public DeviceEngine {
     a.position = raw<Vec3>(s_pos2_);
     a.velocity = raw<Vec3>(s_vel2_);
     a.omega = raw<Vec3>(s_omega2_);
+    if (records_) a.record = raw<SphereRecord>(s_rec2_);
     return a;
   }
   /// `units` times (second half of a step, first half of the next): the launches between two
@@ -657,6 +680,16 @@ class Engine final : public DeviceEngine {
   }
   std::uint64_t walk_kick_units_ = 0;
   vec<Vec3> s_pos2_, s_vel2_, s_omega2_;  // the sphere motion's second buffer (ForcesKickDrift)
+  // The spheres' records (BIODEM_GPU_RECORDS=1; SphereRecord), and those of the second buffer.
+  bool records_ = false, own_sphere_ = false;
+  vec<SphereRecord> s_rec_, s_rec2_;
+  /// The records filled from the arrays (upload, after a sort): both buffers' (the second's
+  /// motion is written before it is read; its radii, masses and materials are these).
+  void pack_records() {
+    if (!records_ || !ns()) return;
+    launch(ns(), PackRecords{sphere_arrays(), raw<SphereRecord>(s_rec_)});
+    if (s_rec2_.size() == ns()) launch(ns(), PackRecords{sphere_arrays(), raw<SphereRecord>(s_rec2_)});
+  }
   /// The entry kernels' per-sphere sums by the row lanes (BIODEM_GPU_SUM_LANES; the timed
   /// choice's fourth set).
   enum class SumLanes { automatic, off, on };
@@ -995,6 +1028,11 @@ inline void Engine::upload() {
     to_device(wall_touching_, t);
   }
 
+  if (records_) {
+    s_rec_.resize(n);
+    s_rec2_.resize(single_spheres_ ? n : 0);
+    pack_records();  // (radii, masses, materials; SpheresFromBodies writes the motion)
+  }
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
   steps_until_check_ = 1;  // the first step checks
@@ -1252,6 +1290,7 @@ inline bool Engine::sort_bodies() {
   launch(n, ps);  // stash
   ps.src = raw<std::uint32_t>(sphere_src_);
   launch(n, ps);  // gather
+  pack_records();
   // Wall history [wall * n + sphere].
   if (n_walls_) {
     const auto slots = thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0),
@@ -1298,6 +1337,7 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   c.dt = dt_;
   c.wall_rolling_lab = host_.wall_rolling_lab();
   c.halt = halt;
+  c.own_sphere = own_sphere_;
   return c;
 }
 
@@ -1472,7 +1512,9 @@ inline void Engine::run_units(std::uint32_t units) {
     }
     if (two_buffers && units % 2 == 1)
       launch(ns(), CopySphereMotion{raw<Vec3>(s_pos2_), raw<Vec3>(s_vel2_), raw<Vec3>(s_omega2_), raw<Vec3>(s_pos_),
-                                    raw<Vec3>(s_vel_), raw<Vec3>(s_omega_)});
+                                    raw<Vec3>(s_vel_), raw<Vec3>(s_omega_),
+                                    records_ ? raw<SphereRecord>(s_rec2_) : nullptr,
+                                    records_ ? raw<SphereRecord>(s_rec_) : nullptr});
   };
   const bool entries = entries_ready();
   if (fused) fused_units_ += units;

@@ -43,10 +43,85 @@ struct BodyArrays {
   std::uint32_t *first_sphere, *sphere_count;
 };
 
+/// What a contact reads of one sphere, in one 96-byte record per sphere (BIODEM_GPU_RECORDS=1):
+/// centre and radius, velocity and body mass, spin and material, each pair of words 16-byte
+/// aligned, so that a GPU thread loads a sphere in six 16-byte loads within three 32-byte sectors,
+/// instead of twelve 8-byte loads from six arrays (about seven and a half sectors: a 24-byte
+/// `Vec3` straddles two sectors one time in two). A copy of the arrays below, which stay the
+/// engine's state: every kernel that writes a sphere's motion writes its record too (set_motion),
+/// and PackRecords fills the records wherever the arrays are filled or reordered (upload, sort).
+struct alignas(32) SphereRecord {
+  Vec3 position;
+  double radius;
+  Vec3 velocity;
+  double body_mass;
+  Vec3 omega;
+  std::uint32_t material, pad;
+};
+static_assert(sizeof(SphereRecord) == 96, "a sphere record is three 32-byte sectors");
+
 struct SphereArrays {
   Vec3 *position, *velocity, *omega, *offset, *force, *torque, *built_at;
   double *radius, *body_mass;
   std::uint32_t *body, *material, *sid, *contacts;
+  SphereRecord* record = nullptr;  // null: no records (BIODEM_GPU_RECORDS=0, the default)
+};
+
+/// A sphere's data as a contact needs it, in registers.
+struct SphereState {
+  Vec3 position;
+  double radius;
+  Vec3 velocity;
+  double body_mass;
+  Vec3 omega;
+  std::uint32_t material;
+};
+/// Sphere i from the arrays (twelve loads, one round).
+BIODEM_HD inline SphereState load_sphere_arrays(const SphereArrays& s, std::uint32_t i) {
+  return SphereState{s.position[i], s.radius[i], s.velocity[i], s.body_mass[i], s.omega[i], s.material[i]};
+}
+/// Sphere i from its record (on a GPU six 16-byte loads, one round). The same values.
+BIODEM_HD inline SphereState load_sphere_record(const SphereRecord* rec, std::uint32_t i) {
+#ifdef __CUDA_ARCH__
+  const double2* p = reinterpret_cast<const double2*>(rec + i);
+  const double2 a = p[0], b = p[1], c = p[2], d = p[3], e = p[4], f = p[5];
+  return SphereState{Vec3{a.x, a.y, b.x}, b.y, Vec3{c.x, c.y, d.x}, d.y, Vec3{e.x, e.y, f.x},
+                     static_cast<std::uint32_t>(static_cast<unsigned long long>(__double_as_longlong(f.y)) & 0xffffffffull)};
+#else
+  const SphereRecord& r = rec[i];
+  return SphereState{r.position, r.radius, r.velocity, r.body_mass, r.omega, r.material};
+#endif
+}
+BIODEM_HD inline SphereState load_sphere(const SphereArrays& s, std::uint32_t i) {
+  return s.record ? load_sphere_record(s.record, i) : load_sphere_arrays(s, i);
+}
+/// Sphere i's motion stored: the arrays, and its record when there are records.
+BIODEM_HD inline void set_motion(const SphereArrays& s, std::uint32_t i, const Vec3& x, const Vec3& v, const Vec3& w) {
+  s.position[i] = x;
+  s.velocity[i] = v;
+  s.omega[i] = w;
+  if (s.record) {
+    SphereRecord& r = s.record[i];
+    r.position = x;
+    r.velocity = v;
+    r.omega = w;
+  }
+}
+/// The records filled from the arrays (one index per sphere): at upload and after a sort.
+struct PackRecords {
+  SphereArrays s;
+  SphereRecord* to;
+  BIODEM_HD void operator()(std::uint32_t i) const {
+    SphereRecord r;
+    r.position = s.position[i];
+    r.radius = s.radius[i];
+    r.velocity = s.velocity[i];
+    r.body_mass = s.body_mass[i];
+    r.omega = s.omega[i];
+    r.material = s.material[i];
+    r.pad = 0;
+    to[i] = r;
+  }
 };
 
 /// Fixed-width neighbour rows, column-major (entry q of sphere i at q * n + i) so that the threads
@@ -88,9 +163,7 @@ BIODEM_HD inline void sphere_from_body(const BodyArrays& b, const SphereArrays& 
                                        const Mat3& R) {
   const Vec3 x = b.position[k], v = b.velocity[k], w = b.omega[k];
   const Vec3 arm = R * s.offset[i];
-  s.position[i] = x + arm;
-  s.velocity[i] = v + cross(w, arm);
-  s.omega[i] = w;
+  set_motion(s, i, x + arm, v + cross(w, arm), w);
 }
 
 /// Sphere centres, velocities and spins from their bodies (one index per sphere; upload).
@@ -100,9 +173,7 @@ struct SpheresFromBodies {
   BIODEM_HD void operator()(std::uint32_t i) const {
     const std::uint32_t k = s.body[i];
     if (b.sphere_count[k] == 1 && s.offset[i] == Vec3{}) {
-      s.position[i] = b.position[k];
-      s.velocity[i] = b.velocity[k];
-      s.omega[i] = b.omega[k];
+      set_motion(s, i, b.position[k], b.velocity[k], b.omega[k]);
       return;
     }
     sphere_from_body(b, s, k, i, to_matrix(b.orientation[k]));
@@ -122,9 +193,7 @@ struct SpheresFromBodies {
 BIODEM_HD inline void spheres_of_body(const SphereArrays& s, std::uint32_t s0, std::uint32_t ns, const Vec3& x,
                                       const Vec3& v, const Vec3& w, const Quat& q, bool centred = false) {
   if (centred || (ns == 1 && s.offset[s0] == Vec3{})) {
-    s.position[s0] = x;
-    s.velocity[s0] = v;
-    s.omega[s0] = w;
+    set_motion(s, s0, x, v, w);
     return;
   }
   const Mat3 R = to_matrix(q);
@@ -136,9 +205,7 @@ BIODEM_HD inline void spheres_of_body(const SphereArrays& s, std::uint32_t s0, s
     for (std::uint32_t c = 0; c < kChunk && c0 + c < ns; ++c) {
       const std::uint32_t i = s0 + c0 + c;
       const Vec3 arm = R * offset[c];
-      s.position[i] = x + arm;
-      s.velocity[i] = v + cross(w, arm);
-      s.omega[i] = w;
+      set_motion(s, i, x + arm, v + cross(w, arm), w);
     }
   }
 }
@@ -847,6 +914,9 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
+  /// The walk by one thread holds its own sphere's data for the whole row (Forces::walk_own;
+  /// BIODEM_GPU_OWN_SPHERE=1) instead of loading it again at each entry.
+  bool own_sphere = false;
   /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
   /// (LowerSide, WallSlotNear, ScatterFlagged): the per-contact passes launch one thread per
   /// listed entry (`cap` threads, those from `*count` on loading their slot, then doing nothing)
@@ -940,15 +1010,33 @@ struct ContactArgs {
     // cached) and a new contact's history after it (Listed: the history with the spheres,
     // whatever the flag). Loads only: the arithmetic and its order are unchanged.
     const std::uint32_t b = e.b;
-    const bool was_touching = e.was_touching;
     if constexpr (Listed) a_low = true;
     else a_low = sid_a < e.sid_b;
     const std::uint32_t i = a_low ? a : b, j = a_low ? b : a;
-    const Vec3 pi = s.position[i], pj = s.position[j];
-    const double ri = s.radius[i], rj = s.radius[j];
-    const double mi = s.body_mass[i], mj = s.body_mass[j];
-    const Vec3 vi = s.velocity[i], vj = s.velocity[j], wi = s.omega[i], wj = s.omega[j];
-    const std::uint32_t mat_i = s.material[i], mat_j = s.material[j];
+    return pair_contact<Cohesion, Rolling, Listed>(e, k, load_sphere(s, i), load_sphere(s, j), a_low, force_low,
+                                                   torque_a, torque_b);
+  }
+  /// pair_entry_from in a walk that holds its own sphere a (`own`, loaded once for the whole
+  /// row: BIODEM_GPU_OWN_SPHERE=1) and loads only the neighbour per entry. The same values.
+  template <bool Cohesion, bool Rolling>
+  BIODEM_HD bool pair_entry_own(const EntryHead& e, const SphereState& own, std::uint32_t sid_a, std::uint32_t k,
+                                Vec3& force_low, Vec3& torque_a, bool& a_low) const {
+    a_low = sid_a < e.sid_b;
+    const SphereState other = load_sphere(s, e.b);
+    return pair_contact<Cohesion, Rolling, false>(e, k, a_low ? own : other, a_low ? other : own, a_low, force_low,
+                                                  torque_a, nullptr);
+  }
+  /// The contact of entry k (head e) between the pair's lower-id sphere si and the other, sj
+  /// (a_low: the row's sphere is si): pair_entry_from's arithmetic.
+  template <bool Cohesion, bool Rolling, bool Listed>
+  BIODEM_HD bool pair_contact(const EntryHead& e, std::uint32_t k, const SphereState& si, const SphereState& sj,
+                              bool a_low, Vec3& force_low, Vec3& torque_a, Vec3* torque_b) const {
+    const bool was_touching = e.was_touching;
+    const Vec3 pi = si.position, pj = sj.position;
+    const double ri = si.radius, rj = sj.radius;
+    const double mi = si.body_mass, mj = sj.body_mass;
+    const Vec3 vi = si.velocity, vj = sj.velocity, wi = si.omega, wj = sj.omega;
+    const std::uint32_t mat_i = si.material, mat_j = sj.material;
     contact::ContactHistory h{};
     // (Listed: loaded whatever the flag, in the round of the spheres' loads; a new contact below
     // takes the same value, nothing having written it since.)
@@ -1058,15 +1146,20 @@ struct ContactArgs {
   /// value for a new contact: nothing writes it in between).
   template <bool Cohesion, bool Rolling, bool Listed = false>
   BIODEM_HD bool wall_entry(std::uint32_t a, std::uint32_t w, Vec3& force, Vec3& torque) const {
+    return wall_contact<Cohesion, Rolling, Listed>(a, w, load_sphere(s, a), force, torque);
+  }
+  /// wall_entry with sphere a's data (sa) loaded by the caller.
+  template <bool Cohesion, bool Rolling, bool Listed = false>
+  BIODEM_HD bool wall_contact(std::uint32_t a, std::uint32_t w, const SphereState& sa, Vec3& force, Vec3& torque) const {
     // As pair_entry: the sphere's data, the slot's flag and a touching contact's history (Listed:
     // the history whatever the flag) loaded before the wall test; the arithmetic and its order
     // unchanged.
     const std::uint32_t slot = w * n + a;
     const bool was_touching = wall_touching[slot] != 0;
-    const Vec3 xa = s.position[a];
-    const double ra = s.radius[a], ma = s.body_mass[a];
-    const Vec3 va = s.velocity[a], wa = s.omega[a];
-    const std::uint32_t mat_a = s.material[a];
+    const Vec3 xa = sa.position;
+    const double ra = sa.radius, ma = sa.body_mass;
+    const Vec3 va = sa.velocity, wa = sa.omega;
+    const std::uint32_t mat_a = sa.material;
     contact::ContactHistory h{};
     if (Listed || was_touching) h = wall_history[slot];
     const DeviceWall& ws = walls[w];
@@ -1429,6 +1522,10 @@ struct Forces : ContactArgs {
   template <class W, class Sums = OrderedWalkSums>
   BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a, Sums sums = Sums{}) {
     if (halted(w.halt)) return;
+    if (w.own_sphere) {
+      walk_own<W>(w, a, sums);
+      return;
+    }
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     for (std::uint32_t v = 0; v < len; ++v) {
@@ -1442,6 +1539,34 @@ struct Forces : ContactArgs {
     }
     const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) sums.add(w.walk_entry(st, v));
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    sums.finish(f, t, count);
+    w.walk_end(a, st, f, t, count);
+  }
+  /// walk_prefetched with the row's own sphere loaded once, with its stable id and row length,
+  /// and held for every entry and wall (BIODEM_GPU_OWN_SPHERE=1): each entry loads only its
+  /// neighbour. The same contacts in the same order with the same values: the same bits.
+  template <class W, class Sums>
+  BIODEM_HD static void walk_own(const W& w, std::uint32_t a, Sums& sums) {
+    const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
+    const SphereState own = load_sphere(w.s, a);
+    EntryHead next = w.entry_head(a);
+    for (std::uint32_t v = 0; v < len; ++v) {
+      const EntryHead e = next;
+      if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
+      RowContact r;
+      bool a_low = false;
+      if (w.template pair_entry_own<Cohesion, Rolling>(e, own, sid_a, v * w.n + a, r.force, r.torque, a_low))
+        r.kind = a_low ? 1 : 2;
+      sums.add(r);
+    }
+    const WalkStart st{a, sid_a, len, len + w.n_walls};
+    for (std::uint32_t v = len; v < st.total; ++v) {
+      RowContact r;
+      if (w.template wall_contact<Cohesion, Rolling>(a, v - len, own, r.force, r.torque)) r.kind = 3;
+      sums.add(r);
+    }
     Vec3 f, t;
     std::uint32_t count = 0;
     sums.finish(f, t, count);
@@ -1636,10 +1761,13 @@ static_assert(WalksHeadsAhead<ForcesKickDrift<false, false>>::value && WalksHead
 struct CopySphereMotion {
   const Vec3 *position, *velocity, *omega;
   Vec3 *position_to, *velocity_to, *omega_to;
+  const SphereRecord* record = nullptr;  // and the records' (when there are records)
+  SphereRecord* record_to = nullptr;
   BIODEM_HD void operator()(std::uint32_t i) const {
     position_to[i] = position[i];
     velocity_to[i] = velocity[i];
     omega_to[i] = omega[i];
+    if (record) record_to[i] = record[i];
   }
 };
 

@@ -781,7 +781,7 @@ std::string first_difference(const sim::Simulation& a, const sim::Simulation& b)
 // host state after run 4 (a checkpoint resumed): the two hosts' state, forces and history must be
 // bit-identical after every run. Returns the steps made.
 std::uint64_t step_alike_in_runs(gpu::DeviceEngine& ea, gpu::DeviceEngine& eb, const sim::Simulation& a,
-                                 const sim::Simulation& b, bool upload_after_run_4) {
+                                 const sim::Simulation& b, bool upload_after_run_4, std::size_t* most_contacts = nullptr) {
   gpu::DeviceEngine::SettleCriterion never;
   never.threshold_j = 0.0;
   never.min_steps = 1000000;
@@ -801,6 +801,7 @@ std::uint64_t step_alike_in_runs(gpu::DeviceEngine& ea, gpu::DeviceEngine& eb, c
     steps += runs[r];
     ea.download(true);
     eb.download(true);
+    if (most_contacts) *most_contacts = std::max(*most_contacts, a.contact_count());
     const std::string diff = first_difference(a, b);
     EXPECT_EQ(diff, "") << "after run " << r << " (" << steps << " steps)";
     if (!diff.empty()) break;
@@ -1744,5 +1745,96 @@ TEST(GpuEngine, EmptySceneAfterAFullOneRunsWithThePairList) {
     e->upload();
     EXPECT_EQ(e->listed_pairs(), 0);
     EXPECT_EQ(e->advance(5).steps, 5u);
+  }
+}
+
+// The contact kernels reading each sphere from its 96-byte record (BIODEM_GPU_RECORDS=1) and the
+// one-thread walk holding its own sphere for the whole row (BIODEM_GPU_OWN_SPHERE=1), against the
+// default loads from the arrays: the packing of needles and beads (the compressed bed of beads for
+// the sets of single-sphere scenes) stepped in runs across list checks, rebuilds with sorts of the bodies, a criterion
+// phase and an upload is bit-identical after every run, in every kernel set that reads a sphere
+// (the row walk, with the body update in two buffers, the entry kernels with the sums apart, in
+// the body kernel and by the row walk, both order-free sets), serially and on two threads. (It
+// fails when a sort does not refill the records, when a clump's spheres' motion skips its
+// record, and when the walk with the body update does not copy the second buffer's records
+// back: checked.)
+TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
+  struct Set {
+    const char* name;
+    bool spheres_only, entries, walk_kick, sum_lanes, fixed, records, own, parallel;
+  };
+  const Set sets[] = {
+      {"row walk, records and own sphere", false, false, false, false, false, true, true, true},
+      {"row walk, records", false, false, false, false, false, true, false, false},
+      {"row walk, own sphere from the arrays", false, false, false, false, false, false, true, false},
+      {"row walk with the body update, records and own sphere", true, false, true, false, false, true, true, true},
+      {"entry kernels, records", false, true, false, false, false, true, true, false},
+      {"entry kernels with the sums in the body kernel, records", true, true, false, false, false, true, false, true},
+      {"entry sums by the row walk, records", true, true, false, true, false, true, false, false},
+      {"order-free per-contact, records", false, true, false, false, true, true, false, true},
+      {"order-free row walk, records and own sphere", false, false, false, false, true, true, true, false},
+  };
+  for (const Set& set : sets) {
+    SCOPED_TRACE(set.name);
+    const ScopedThreads scoped(set.parallel ? 2 : 1);
+    const std::size_t old = kParallelThreshold;
+    if (set.parallel) set_parallel_threshold(0);
+    // (single spheres: the compressed bed, hundreds of contacts with cohesion and rolling
+    // friction; clumps: the packing of needles and beads, colliding)
+    auto make = [&set] { return set.spheres_only ? compressed_bed() : packing(0.5e-3); };
+    auto a = make(), b = make();
+    ::setenv("BIODEM_GPU_RECORDS", set.records ? "1" : "0", 1);
+    ::setenv("BIODEM_GPU_OWN_SPHERE", set.own ? "1" : "0", 1);
+    auto ea = gpu_engine(*a);
+    ::unsetenv("BIODEM_GPU_RECORDS");
+    ::unsetenv("BIODEM_GPU_OWN_SPHERE");
+    auto eb = gpu_engine(*b);
+    for (auto* e : {ea.get(), eb.get()}) {
+      e->set_entry_forces(set.entries);
+      if (set.fixed) e->set_fixed_sums(true);
+      if (!set.fixed) e->set_walk_kick(set.walk_kick);
+      if (!set.fixed) e->set_sum_lanes(set.sum_lanes);
+      e->set_check_every(3);
+      e->upload();
+    }
+    std::size_t most = 0;
+    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true, &most);
+    set_parallel_threshold(old);
+    std::printf("[measured] %s vs the arrays: %llu steps, %llu list builds, %llu body sorts, up to %zu contacts "
+                "after a run; bit-identical after every run\n",
+                set.name, static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
+                static_cast<unsigned long long>(ea->body_sorts()), most);
+    EXPECT_GT(ea->list_builds(), 5u);
+    EXPECT_GT(ea->body_sorts(), 1u);
+    EXPECT_GT(most, 10u);
+    if (set.walk_kick) {
+      EXPECT_GT(ea->walk_kick_steps(), steps / 2);
+    }
+    if (set.entries) {
+      EXPECT_GT(ea->entry_force_passes(), steps / 2);
+    }
+    if (set.fixed) {
+      EXPECT_EQ(ea->fixed_sum_passes(), steps);
+    }
+    const std::string how = ea->contact_kernels();
+    EXPECT_EQ(how.find("BIODEM_GPU_RECORDS=1") != std::string::npos, set.records) << how;
+    EXPECT_EQ(how.find("BIODEM_GPU_OWN_SPHERE=1") != std::string::npos, set.own) << how;
+    EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_RECORDS"), std::string::npos);
+    EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_OWN_SPHERE"), std::string::npos);
+  }
+}
+
+// The switches take 0 or 1 and nothing else, named in the error.
+TEST(GpuEngine, SphereLoadSwitchesRefuseOtherValues) {
+  auto s = packing(0.5e-3);
+  for (const char* name : {"BIODEM_GPU_RECORDS", "BIODEM_GPU_OWN_SPHERE"}) {
+    ::setenv(name, "yes", 1);
+    try {
+      auto e = gpu_engine(*s);
+      ADD_FAILURE() << name << " = yes was accepted";
+    } catch (const Error& err) {
+      EXPECT_EQ(std::string(err.what()), std::string(name) + " = 'yes': expected 0 or 1");
+    }
+    ::unsetenv(name);
   }
 }
