@@ -7,6 +7,7 @@
 #      waiting for their reduction (BIODEM_GPU_QUEUED_CHECK=0), and for several values of
 #      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk),
 #      BIODEM_GPU_WALK_KICK (the row walk with the body update, single-sphere drums),
+#      BIODEM_GPU_RECORDS and BIODEM_GPU_OWN_SPHERE (how the contact kernels load the spheres),
 #      BIODEM_GPU_PDL (programmatic dependent launch), the list
 #      build by one thread per row (BIODEM_GPU_BUILD_LANES=1, profiled beside the default),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
@@ -93,7 +94,8 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # (most telling first, so that a sweep cut short by its time limit keeps them; threads per block
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=entries \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_RECORDS=1 BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1 \
+  BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=entries \
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 \
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 BIODEM_GPU_FORCES=entries \
   BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \

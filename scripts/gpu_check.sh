@@ -24,7 +24,8 @@
 #      error line and status 2, not std::terminate;
 #      (3i) each contact kernel set forced (the entry kernels also with their sums by the row
 #      lanes, BIODEM_GPU_SUM_LANES=1, and over every row entry instead of the pair list,
-#      BIODEM_GPU_PAIR_LIST=full), and on a GPU the row walk with 1, 2 and 32 lanes and
+#      BIODEM_GPU_PAIR_LIST=full; the one-thread walk and the entry kernels reading the spheres'
+#      records, BIODEM_GPU_RECORDS=1, the walk holding its own sphere), and on a GPU the row walk with 1, 2 and 32 lanes and
 #      blocks of 32 and 512 threads, byte-identical to (3);
 #      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
 #      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
@@ -39,7 +40,7 @@
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
 #      row, the single-sphere body kernel with its sums by the row lanes, the row walk with
-#      the body update (BIODEM_GPU_WALK_KICK=1) and the entry kernels over every row entry
+#      the body update (BIODEM_GPU_WALK_KICK=1; also reading the spheres' records) and the entry kernels over every row entry
 #      (BIODEM_GPU_PAIR_LIST=full) byte-identical, CPU engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
@@ -60,7 +61,8 @@
 #                        the entry kernels with their sums by the row lanes, spheres: the
 #                        same on the wide-row scene of single spheres, walkkick: the row
 #                        walk with the body update on that scene, fixed: the order-free
-#                        family on the 40k drum); default the eleven of
+#                        family on the 40k drum, records: that walk reading the spheres'
+#                        records, own sphere held); default the twelve of
 #                        docs/gpu.md section 6, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
@@ -272,13 +274,19 @@ BIODEM_GPU_FORCES=rows run_biodem needles_rows "$needles" "$OUT/needles_rows" --
 BIODEM_GPU_FORCES=entries run_biodem needles_entries "$needles" "$OUT/needles_entries" --device "$DEVICE"; se=$?
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem needles_sum_lanes "$needles" "$OUT/needles_sum_lanes" --device "$DEVICE"; sl=$?
 BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem needles_full_pass "$needles" "$OUT/needles_full_pass" --device "$DEVICE"; sp=$?
-lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d=""
-lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1) and entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full) forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt)"
+# (the spheres read from their records, and the one-thread walk holding its own sphere)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 run_biodem needles_records_rows "$needles" "$OUT/needles_records_rows" --device "$DEVICE"; sq=$?
+BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 run_biodem needles_records_entries "$needles" "$OUT/needles_records_entries" --device "$DEVICE"; sx=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d=""
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
-     ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4)"
+     ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass") ||
+     ! d5=$(same_files "$OUT/needles_a" "$OUT/needles_records_rows") || ! d6=$(same_files "$OUT/needles_a" "$OUT/needles_records_entries"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6)"
+elif ! grep -q 'BIODEM_GPU_RECORDS=1' "$OUT/needles_records_rows/run.log" || ! grep -q 'BIODEM_GPU_OWN_SPHERE=1' "$OUT/needles_records_rows/run.log"; then
+  lanes_ok=0; lanes_detail="the run with BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 does not say so in run.log"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -447,6 +455,8 @@ BIODEM_GPU_BUILD_LANES=1 run_biodem wide_build1 "$wide" "$OUT/wide_build1" --dev
 BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem wide_sum_lanes "$wide" "$OUT/wide_sum_lanes" --device "$DEVICE"; we=$?
 # (and the row walk with the body update in one kernel, the sphere motion in two buffers)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem wide_walk_kick "$wide" "$OUT/wide_walk_kick" --device "$DEVICE"; wk=$?
+# (the same with the spheres' records, in both buffers, and the walk holding its own sphere)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 run_biodem wide_walk_kick_records "$wide" "$OUT/wide_walk_kick_records" --device "$DEVICE"; wr=$?
 # (the entry kernels over every row entry and wall slot, against the pair and wall-slot lists,
 # across the widenings)
 BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem wide_full_pass "$wide" "$OUT/wide_full_pass" --device "$DEVICE"; wf=$?
@@ -469,6 +479,9 @@ else
   elif ! grep -q 'ForcesKickDrift' "$OUT/wide_walk_kick/run.log"; then ok=0; detail="$detail; BIODEM_GPU_WALK_KICK=1 did not run ForcesKickDrift"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick"); then detail="$detail; row walk with the body update (BIODEM_GPU_WALK_KICK=1) byte-identical"
   else ok=0; detail="$detail; row walk with the body update differs: $(echo $diff)"; fi
+  if [ $wr -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_RECORDS=1 failed"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_records"); then detail="$detail; the same reading the spheres' records, own sphere held (BIODEM_GPU_RECORDS=1, BIODEM_GPU_OWN_SPHERE=1) byte-identical"
+  else ok=0; detail="$detail; the walk with the body update reading the records differs: $(echo $diff)"; fi
   if [ $wf -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PAIR_LIST=full failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_full_pass"); then detail="$detail; entry kernels over every entry (BIODEM_GPU_PAIR_LIST=full) byte-identical"
   else ok=0; detail="$detail; entry kernels over every entry differ: $(echo $diff)"; fi
@@ -484,7 +497,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed memcheck:records}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -498,6 +511,9 @@ if [ "$DEVICE" = gpu ]; then
                 envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1)
                 scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
+      records) what=", row walk with the body update reading the spheres' records (two buffers), own sphere held"
+               envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1)
+               scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool ($scene_name$what)"
