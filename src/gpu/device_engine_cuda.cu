@@ -552,6 +552,10 @@ inline std::uint32_t& row_lanes_log2() {
 template <class W>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2);
 
+/// Items with a group of lanes each (defined after the kernels, below): f.run(item, group).
+template <class F>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_group(std::uint32_t n, F f, std::uint32_t lanes_log2);
+
 /// Lanes per row of a list build (System::launch_row_builds): 16 unless BIODEM_GPU_BUILD_LANES
 /// says 2, 4, 8 or 32 (1: the engine builds with BuildRows instead); log2 of it.
 inline std::uint32_t& build_lanes_log2() {
@@ -610,6 +614,23 @@ struct System {
       throw Error("GPU engine: " + std::to_string(n) + " row walks of " + std::to_string(1u << log2) +
                   " lanes exceed 2^32 threads; set BIODEM_GPU_ROW_LANES lower");
     launch_kernel(for_each_walk<W>, static_cast<std::uint32_t>((threads + block - 1) / block), block, n, w, log2);
+    check_cuda("a kernel launch");
+  }
+  /// n items with a group of 2^lanes_log2 lanes of a warp each (f.run(item, WarpGroup); lanes_log2
+  /// at most 5); no host wait.
+  template <class F>
+  static void launch_groups(std::uint32_t n, const F& f, std::uint32_t lanes_log2) {
+    if (lanes_log2 == 0) {
+      launch(n, f);
+      return;
+    }
+    const std::uint32_t block = launch_block();  // (at least 32: a multiple of the lanes)
+    const std::uint64_t threads = static_cast<std::uint64_t>(n) << lanes_log2;
+    if (threads + block - 1 > 0xffffffffull)
+      throw Error("GPU engine: " + std::to_string(n) + " items of " + std::to_string(1u << lanes_log2) +
+                  " lanes exceed 2^32 threads");
+    launch_kernel(for_each_group<F>, static_cast<std::uint32_t>((threads + block - 1) / block), block, n, f,
+                  lanes_log2);
     check_cuda("a kernel launch");
   }
   /// The row lanes, as run.log names them.
@@ -733,6 +754,16 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
   const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
   if (item >= n) return;
   walk_row_lanes(w, item, WarpGroup::of_thread(lanes_log2));
+}
+
+/// Items with a group of 2^lanes_log2 lanes each (System::launch_groups): a group never
+/// straddles a warp, and its lanes leave together (the item is the group's).
+template <class F>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_group(std::uint32_t n, F f, std::uint32_t lanes_log2) {
+  after_previous_kernel();
+  const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
+  if (item >= n) return;
+  f.run(item, WarpGroup::of_thread(lanes_log2));
 }
 
 /// Row builds with a group of 2^lanes_log2 lanes per sphere (kernels.hpp, BuildRowsGrouped);

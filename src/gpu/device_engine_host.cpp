@@ -110,6 +110,11 @@ struct System {
     launch(n, w);
   }
   static std::string walk_lanes() { return "row lanes (on CPU threads, one thread per sphere too)"; }
+  /// Items with a group of lanes each: here one thread per item, a group of one lane (f(i)).
+  template <class F>
+  static void launch_groups(std::uint32_t n, const F& f, std::uint32_t /*lanes_log2*/) {
+    launch(n, f);
+  }
   /// The grouped list build (kernels.hpp, BuildRowsGrouped): here one thread runs each row's
   /// group as a group of one lane.
   template <class B>

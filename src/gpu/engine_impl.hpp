@@ -183,6 +183,21 @@ class Engine final : public DeviceEngine {
           throw Error(std::string(name) + " = '" + v + "': expected 0 or 1");
         *flag = std::string(v) == "1";
       }
+    // BIODEM_GPU_BODY_LANES=1|2|4|8|16|32|auto: in scenes of clumps, the fused body kernel by one
+    // thread per body (ReduceKickDrift, the default until timed on a GPU) or by a group of that
+    // many lanes (ReduceKickDriftLanes; auto: the most spheres of a body, rounded up to a power
+    // of two, at most 32). On CPU threads always one lane. The same bits either way.
+    if (const char* bl = std::getenv("BIODEM_GPU_BODY_LANES"); bl && *bl) {
+      const std::string v(bl);
+      if (v == "auto") {
+        body_lanes_auto_ = true;
+      } else {
+        std::uint32_t log2 = 0;
+        while (log2 <= 5 && std::to_string(1u << log2) != v) ++log2;
+        if (log2 > 5) throw Error("BIODEM_GPU_BODY_LANES = '" + v + "': expected 1, 2, 4, 8, 16, 32 or auto");
+        body_lanes_log2_ = log2;
+      }
+    }
     // BIODEM_GPU_QUEUED_CHECK=0: every list check reduces and waits (instead of reading the
     // reduction queued before it; for comparisons, and a way out if the queued one fails).
     if (const char* q = std::getenv("BIODEM_GPU_QUEUED_CHECK"); q && *q) {
@@ -315,6 +330,9 @@ class Engine final : public DeviceEngine {
     std::string r;
     if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
     if (own_sphere_) r += "; the one-thread walk holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+    if (body_lanes_log2_ && !single_spheres_)
+      r += "; the clumps' body kernel by " + std::to_string(1u << body_lanes_log2_) + " lanes per body (BIODEM_GPU_BODY_LANES" +
+           (body_lanes_auto_ ? "=auto" : "") + "; on CPU threads one)";
     return r;
   }
   std::string contact_set(const std::string& set) const {
@@ -682,6 +700,10 @@ class Engine final : public DeviceEngine {
   vec<Vec3> s_pos2_, s_vel2_, s_omega2_;  // the sphere motion's second buffer (ForcesKickDrift)
   // The spheres' records (BIODEM_GPU_RECORDS=1; SphereRecord), and those of the second buffer.
   bool records_ = false, own_sphere_ = false;
+  // The fused body kernel's lanes per body in scenes of clumps (BIODEM_GPU_BODY_LANES; log2; 0:
+  // one thread per body); auto: set at upload from the most spheres of a body.
+  std::uint32_t body_lanes_log2_ = 0;
+  bool body_lanes_auto_ = false;
   vec<SphereRecord> s_rec_, s_rec2_;
   /// The records filled from the arrays (upload, after a sort): both buffers' (the second's
   /// motion is written before it is read; its radii, masses and materials are these).
@@ -922,6 +944,12 @@ inline void Engine::upload() {
   // (a body sort keeps both: a one-sphere body's sphere moves with it, its offset with it)
   centred_spheres_ = single_spheres_ && std::all_of(s.offset_body_m.begin(), s.offset_body_m.end(),
                                                     [](const Vec3& o) { return o == Vec3{}; });
+  if (body_lanes_auto_) {
+    std::uint32_t most = 1;
+    for (std::uint32_t c : b.sphere_count) most = std::max(most, c);
+    body_lanes_log2_ = 0;
+    while (body_lanes_log2_ < 5 && (1u << body_lanes_log2_) < most) ++body_lanes_log2_;
+  }
 
   const std::size_t n = s.size();
   // Stable sphere ids: spheres numbered body by body in stable body id order.
@@ -1436,7 +1464,8 @@ inline void Engine::fused_unit(bool from_second) {
     return;
   }
   compute_forces(halt());
-  launch(nb(), rkd);
+  if (body_lanes_log2_ && !single_spheres_) System::launch_groups(nb(), ReduceKickDriftLanes{rkd}, body_lanes_log2_);
+  else launch(nb(), rkd);
 }
 
 template <bool Cohesion, bool Rolling>

@@ -1695,6 +1695,52 @@ struct ReduceKickDrift {
   }
 };
 
+/// ReduceKickDrift of body k by a group of lanes (BIODEM_GPU_BODY_LANES; on a GPU lanes of one
+/// warp, on CPU threads one lane), for scenes of clumps: every lane loads the body's state, the
+/// body-frame offset of its own first sphere, and the body's spheres' sums (body_sums), all
+/// before any store; after the group's sync every lane integrates the body in registers (the
+/// same operations on the same values: the same bits in every lane), lane 0 stores the body,
+/// and lane l places spheres l, l + lanes, ... (spheres_of_body's formula for each). Against
+/// ReduceKickDrift in one thread: the offsets are not loaded after the body's stores (on the
+/// H100, 22 % of that kernel's stall samples on the raw drum waited for them), and a needle's
+/// three spheres are placed at once instead of one after another. The same bits
+/// (GroupLanes tests, GpuEngine.BodyLanesGiveTheBitsOfReduceKickDrift).
+struct ReduceKickDriftLanes {
+  ReduceKickDrift rkd;
+  template <class Group>
+  BIODEM_HD void run(std::uint32_t k, const Group& grp) const {
+    if (halted(rkd.halt)) return;  // (the same flag for every lane of the group)
+    const std::uint32_t lanes = grp.size(), lane = grp.lane();
+    BodyState st = load_body(rkd.b, k);
+    Vec3 own_offset{};
+    if (lane < st.ns) own_offset = rkd.s.offset[st.s0 + lane];
+    Vec3 f, t;
+    body_sums(rkd.b, rkd.s, k, rkd.gravity, f, t);
+    grp.sync();  // (every lane's loads of the body and its spheres before the stores below)
+    integrate::half_kick_then_kick_and_drift(st.x, st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, rkd.h,
+                                             rkd.dt);
+    if (lane == 0) {
+      rkd.b.force[k] = f;
+      rkd.b.torque[k] = t;
+      rkd.b.position[k] = st.x;
+      rkd.b.velocity[k] = st.v;
+      rkd.b.omega[k] = st.w;
+      rkd.b.ang_momentum[k] = st.l;
+      rkd.b.orientation[k] = st.q;
+    }
+    if (st.ns == 1 && own_offset == Vec3{}) {  // (spheres_of_body's single centred sphere)
+      if (lane == 0) set_motion(rkd.s, st.s0, st.x, st.v, st.w);
+      return;
+    }
+    const Mat3 R = to_matrix(st.q);
+    for (std::uint32_t c = lane; c < st.ns; c += lanes) {
+      const Vec3 arm = R * (c == lane ? own_offset : rkd.s.offset[st.s0 + c]);
+      set_motion(rkd.s, st.s0 + c, st.x + arm, st.v + cross(st.w, arm), st.w);
+    }
+  }
+  BIODEM_HD void operator()(std::uint32_t k) const { run(k, OneLane{}); }
+};
+
 /// The rest of SumEntriesKickDrift once sphere k's sums (fs, ts, count) are known: they are
 /// stored, then ReduceKickDrift of body k on them. The body's state and the sphere's centre are
 /// loaded before the first store; the body sums take the sphere's sums from registers (body_sums

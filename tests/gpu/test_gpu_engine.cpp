@@ -1762,6 +1762,7 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
   struct Set {
     const char* name;
     bool spheres_only, entries, walk_kick, sum_lanes, fixed, records, own, parallel;
+    const char* body_lanes = nullptr;  // BIODEM_GPU_BODY_LANES (on CPU threads: the lanes' kernel, one lane)
   };
   const Set sets[] = {
       {"row walk, records and own sphere", false, false, false, false, false, true, true, true},
@@ -1773,6 +1774,8 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
       {"entry sums by the row walk, records", true, true, false, true, false, true, false, false},
       {"order-free per-contact, records", false, true, false, false, true, true, false, true},
       {"order-free row walk, records and own sphere", false, false, false, false, true, true, true, false},
+      {"row walk, records, the clumps' body kernel by lanes", false, false, false, false, false, true, false, true, "4"},
+      {"entry kernels, the clumps' body kernel by lanes", false, true, false, false, false, false, false, false, "auto"},
   };
   for (const Set& set : sets) {
     SCOPED_TRACE(set.name);
@@ -1785,9 +1788,11 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
     auto a = make(), b = make();
     ::setenv("BIODEM_GPU_RECORDS", set.records ? "1" : "0", 1);
     ::setenv("BIODEM_GPU_OWN_SPHERE", set.own ? "1" : "0", 1);
+    if (set.body_lanes) ::setenv("BIODEM_GPU_BODY_LANES", set.body_lanes, 1);
     auto ea = gpu_engine(*a);
     ::unsetenv("BIODEM_GPU_RECORDS");
     ::unsetenv("BIODEM_GPU_OWN_SPHERE");
+    ::unsetenv("BIODEM_GPU_BODY_LANES");
     auto eb = gpu_engine(*b);
     for (auto* e : {ea.get(), eb.get()}) {
       e->set_entry_forces(set.entries);
@@ -1819,21 +1824,26 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
     const std::string how = ea->contact_kernels();
     EXPECT_EQ(how.find("BIODEM_GPU_RECORDS=1") != std::string::npos, set.records) << how;
     EXPECT_EQ(how.find("BIODEM_GPU_OWN_SPHERE=1") != std::string::npos, set.own) << how;
+    // (auto: the packing's needles have 3 spheres, so 4 lanes)
+    EXPECT_EQ(how.find("body kernel by 4 lanes per body") != std::string::npos, set.body_lanes != nullptr) << how;
     EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_RECORDS"), std::string::npos);
     EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_OWN_SPHERE"), std::string::npos);
   }
 }
 
-// The switches take 0 or 1 and nothing else, named in the error.
+// The switches of how the spheres are loaded and of the body kernel's lanes take their values
+// and nothing else, named in the error.
 TEST(GpuEngine, SphereLoadSwitchesRefuseOtherValues) {
   auto s = packing(0.5e-3);
-  for (const char* name : {"BIODEM_GPU_RECORDS", "BIODEM_GPU_OWN_SPHERE"}) {
-    ::setenv(name, "yes", 1);
+  for (const char* name : {"BIODEM_GPU_RECORDS", "BIODEM_GPU_OWN_SPHERE", "BIODEM_GPU_BODY_LANES"}) {
+    ::setenv(name, "3", 1);
     try {
       auto e = gpu_engine(*s);
-      ADD_FAILURE() << name << " = yes was accepted";
+      ADD_FAILURE() << name << " = 3 was accepted";
     } catch (const Error& err) {
-      EXPECT_EQ(std::string(err.what()), std::string(name) + " = 'yes': expected 0 or 1");
+      EXPECT_EQ(std::string(err.what()), std::string(name) + " = '3': expected " +
+                                             (std::string(name) == "BIODEM_GPU_BODY_LANES" ? "1, 2, 4, 8, 16, 32 or auto"
+                                                                                           : "0 or 1"));
     }
     ::unsetenv(name);
   }
