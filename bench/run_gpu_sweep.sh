@@ -8,6 +8,7 @@
 #      BIODEM_GPU_FORCES (force kernels), BIODEM_GPU_ROW_LANES (lanes per row walk),
 #      BIODEM_GPU_WALK_KICK (the row walk with the body update, single-sphere drums),
 #      BIODEM_GPU_RECORDS and BIODEM_GPU_OWN_SPHERE (how the contact kernels load the spheres),
+#      BIODEM_GPU_BODY_LANES (the clumps' body kernel by a group of lanes per body),
 #      BIODEM_GPU_PDL (programmatic dependent launch), the list
 #      build by one thread per row (BIODEM_GPU_BUILD_LANES=1, profiled beside the default),
 #      BIODEM_GPU_SKIN_DIAMETERS (the device list's skin), BIODEM_GPU_BLOCK (threads per block)
@@ -95,6 +96,7 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # and steps between checks, which changed nothing on 2026-11-26, are left to SWEEP_SETTINGS)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_RECORDS=1 BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1 \
+  BIODEM_GPU_BODY_LANES=auto BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1+BIODEM_GPU_BODY_LANES=auto \
   BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=entries \
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 \
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=8 BIODEM_GPU_FORCES=entries \

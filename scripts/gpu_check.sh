@@ -25,7 +25,8 @@
 #      (3i) each contact kernel set forced (the entry kernels also with their sums by the row
 #      lanes, BIODEM_GPU_SUM_LANES=1, and over every row entry instead of the pair list,
 #      BIODEM_GPU_PAIR_LIST=full; the one-thread walk and the entry kernels reading the spheres'
-#      records, BIODEM_GPU_RECORDS=1, the walk holding its own sphere), and on a GPU the row walk with 1, 2 and 32 lanes and
+#      records, BIODEM_GPU_RECORDS=1, the walk holding its own sphere, the entry kernels with
+#      the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), and on a GPU the row walk with 1, 2 and 32 lanes and
 #      blocks of 32 and 512 threads, byte-identical to (3);
 #      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
 #      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
@@ -61,8 +62,9 @@
 #                        the entry kernels with their sums by the row lanes, spheres: the
 #                        same on the wide-row scene of single spheres, walkkick: the row
 #                        walk with the body update on that scene, fixed: the order-free
-#                        family on the 40k drum, records: that walk reading the spheres'
-#                        records, own sphere held); default the twelve of
+#                        family on the 40k drum, records: the one-thread walk reading the
+#                        spheres' records, own sphere held, and the clumps' body kernel by
+#                        lanes, on the 40k drum); default the twelve of
 #                        docs/gpu.md section 6, empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
@@ -276,9 +278,9 @@ BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem needles_sum_lanes "$
 BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem needles_full_pass "$needles" "$OUT/needles_full_pass" --device "$DEVICE"; sp=$?
 # (the spheres read from their records, and the one-thread walk holding its own sphere)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 run_biodem needles_records_rows "$needles" "$OUT/needles_records_rows" --device "$DEVICE"; sq=$?
-BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 run_biodem needles_records_entries "$needles" "$OUT/needles_records_entries" --device "$DEVICE"; sx=$?
+BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 BIODEM_GPU_BODY_LANES=auto run_biodem needles_records_entries "$needles" "$OUT/needles_records_entries" --device "$DEVICE"; sx=$?
 lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d=""
-lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1) forced byte-identical to (3)"
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto) forced byte-identical to (3)"
 if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sa -ne 0 ]; then
   lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
@@ -511,9 +513,8 @@ if [ "$DEVICE" = gpu ]; then
                 envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1)
                 scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
-      records) what=", row walk with the body update reading the spheres' records (two buffers), own sphere held"
-               envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1)
-               scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
+      records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"
+               envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;
     esac
     name="2. compute-sanitizer $tool ($scene_name$what)"
