@@ -8,6 +8,7 @@
 // This header lives in a namespace chosen by the including translation unit
 // (BIODEM_GPU_NS), so that the CUDA and the host-threads instantiations never share a symbol.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -59,6 +60,11 @@ struct alignas(32) SphereRecord {
   std::uint32_t material, pad;
 };
 static_assert(sizeof(SphereRecord) == 96, "a sphere record is three 32-byte sectors");
+// (load_sphere_record's 16-byte loads read the words at these offsets)
+static_assert(offsetof(SphereRecord, radius) == 24 && offsetof(SphereRecord, velocity) == 32 &&
+                  offsetof(SphereRecord, body_mass) == 56 && offsetof(SphereRecord, omega) == 64 &&
+                  offsetof(SphereRecord, material) == 88,
+              "the record's words in pairs: centre x y | z radius | velocity x y | z mass | spin x y | z material");
 
 struct SphereArrays {
   Vec3 *position, *velocity, *omega, *offset, *force, *torque, *built_at;
