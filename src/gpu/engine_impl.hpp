@@ -182,6 +182,9 @@ class Engine final : public DeviceEngine {
         if (std::string(v) != "0" && std::string(v) != "1")
           throw Error(std::string(name) + " = '" + v + "': expected 0 or 1");
         *flag = std::string(v) == "1";
+#ifdef BIODEM_GPU_NO_RECORD_PATHS
+        if (*flag) throw Error(std::string(name) + " = '1': this biodem was built without it (-DBIODEM_GPU_NO_RECORD_PATHS)");
+#endif
       }
     // BIODEM_GPU_BODY_LANES=1|2|4|8|16|32|auto: in scenes of clumps, the fused body kernel by one
     // thread per body (ReduceKickDrift, the default until timed on a GPU) or by a group of that

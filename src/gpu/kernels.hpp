@@ -98,20 +98,29 @@ BIODEM_HD inline SphereState load_sphere_record(const SphereRecord* rec, std::ui
   return SphereState{r.position, r.radius, r.velocity, r.body_mass, r.omega, r.material};
 #endif
 }
+/// (-DBIODEM_GPU_NO_RECORD_PATHS: a build without the records' branches, so that a lease can time
+/// the default path against the binary before them, docs/gpu.md section 6; the engine then
+/// refuses BIODEM_GPU_RECORDS=1 and BIODEM_GPU_OWN_SPHERE=1.)
 BIODEM_HD inline SphereState load_sphere(const SphereArrays& s, std::uint32_t i) {
+#ifdef BIODEM_GPU_NO_RECORD_PATHS
+  return load_sphere_arrays(s, i);
+#else
   return s.record ? load_sphere_record(s.record, i) : load_sphere_arrays(s, i);
+#endif
 }
 /// Sphere i's motion stored: the arrays, and its record when there are records.
 BIODEM_HD inline void set_motion(const SphereArrays& s, std::uint32_t i, const Vec3& x, const Vec3& v, const Vec3& w) {
   s.position[i] = x;
   s.velocity[i] = v;
   s.omega[i] = w;
+#ifndef BIODEM_GPU_NO_RECORD_PATHS
   if (s.record) {
     SphereRecord& r = s.record[i];
     r.position = x;
     r.velocity = v;
     r.omega = w;
   }
+#endif
 }
 /// The records filled from the arrays (one index per sphere): at upload and after a sort.
 struct PackRecords {
@@ -1528,10 +1537,12 @@ struct Forces : ContactArgs {
   template <class W, class Sums = OrderedWalkSums>
   BIODEM_HD static void walk_prefetched(const W& w, std::uint32_t a, Sums sums = Sums{}) {
     if (halted(w.halt)) return;
+#ifndef BIODEM_GPU_NO_RECORD_PATHS
     if (w.own_sphere) {
       walk_own<W>(w, a, sums);
       return;
     }
+#endif
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     for (std::uint32_t v = 0; v < len; ++v) {
