@@ -95,12 +95,12 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # (most telling first, so that a sweep cut short by its time limit keeps them, the changes not
 # yet timed between two defaults; threads per block and steps between checks, which changed
 # nothing on 2026-11-26, and the skins, the row walk with 2 or 8 lanes and the build by one
-# thread per row, measured in every lease of 2026-11-26 and 27, are left to SWEEP_SETTINGS: 24
-# settings, about 180 s on the H100 as lease 9's 23)
+# thread per row, measured in every lease of 2026-11-26 and 27, are left to SWEEP_SETTINGS: 23
+# settings, about 170 s on the H100 as lease 9's 23)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_RECORDS=1 BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1 \
   BIODEM_GPU_BODY_LANES=auto BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1+BIODEM_GPU_BODY_LANES=auto \
-  BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 default \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 default \
   BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=entries \
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 \
   BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \
@@ -131,7 +131,8 @@ table = collections.OrderedDict()
 for r in rows:
     k = r["setting"]
     seen[(k, r["case"])] += 1
-    key = k if seen[(k, r["case"])] == 1 else k + " (again)"
+    n = seen[(k, r["case"])]
+    key = k if n == 1 else f"{k} ({n})"
     table.setdefault(key, {})[r["case"]] = r["us_per_step"]
 for k, v in table.items():
     print(f"  {k:28s} " + "  ".join(f"{v.get(c, '-'):>8s}" for c in cases))

@@ -8,8 +8,9 @@
 # builds, then runs, each recorded as PASS / FAIL / SKIP in one Markdown report:
 #   1. the GPU tests (tests/gpu, GpuRuns.*) on the device, with CUDA_LAUNCH_BLOCKING=1 and without;
 #   2. compute-sanitizer memcheck, initcheck, racecheck and synccheck on a short drum of 40,200
-#      spheres (tests/cases/gpu_check_drum40k.toml), memcheck and initcheck again with the entry
-#      contact kernels (BIODEM_GPU_FORCES=entries); run after check 6, being the slowest;
+#      spheres (tests/cases/gpu_check_drum40k.toml), memcheck again with the entry contact
+#      kernels (BIODEM_GPU_FORCES=entries), and the other kernel sets of GPU_CHECK_SANITIZER_JOBS
+#      below; run after check 6, being the slowest;
 #   3. two identical runs of a cohesive needle drum, compared byte for byte (series, trace,
 #      snapshots, checkpoint), and (3b) the same run with every loop on two threads
 #      (BIODEM_TEST_PARALLEL_THRESHOLD=0 --threads 2) compared with them;
@@ -289,6 +290,8 @@ elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_file
   lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6)"
 elif ! grep -q 'BIODEM_GPU_RECORDS=1' "$OUT/needles_records_rows/run.log" || ! grep -q 'BIODEM_GPU_OWN_SPHERE=1' "$OUT/needles_records_rows/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 does not say so in run.log"
+elif ! grep -q 'by 4 lanes per body' "$OUT/needles_records_entries/run.log"; then
+  lanes_ok=0; lanes_detail="the run with BIODEM_GPU_BODY_LANES=auto does not report 4 lanes per body in run.log"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -299,6 +302,16 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 16, 32 lanes x blocks of 32, 512 byte-identical to 4 lanes, 64"
+  # (the clumps' body kernel by 2 and 32 lanes per body, in blocks of 32 and 512: the groups'
+  # warp syncs at other sizes and places in a warp)
+  for bl in 2 32; do
+    for block in 32 512; do
+      why=$(variant_same "$OUT/needles_rows" "needles_bodylanes${bl}_block$block" BIODEM_GPU_FORCES=rows \
+            BIODEM_GPU_BODY_LANES=$bl BIODEM_GPU_BLOCK=$block) ||
+        { lanes_ok=0; lanes_detail="$lanes_detail; body kernel by $bl lanes, blocks of $block: $why"; }
+    done
+  done
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' body kernel by 2 and 32 lanes x blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
@@ -499,7 +512,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries initcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed memcheck:records}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed memcheck:records synccheck:records}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in

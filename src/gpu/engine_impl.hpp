@@ -332,9 +332,14 @@ class Engine final : public DeviceEngine {
   std::string loads_note() const {
     std::string r;
     if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
-    if (own_sphere_) r += "; the one-thread walk holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
-    if (body_lanes_log2_ && !single_spheres_)
-      r += "; the clumps' body kernel by " + std::to_string(1u << body_lanes_log2_) + " lanes per body (BIODEM_GPU_BODY_LANES" +
+    if (own_sphere_)
+      r += use_entry_kernels() ? "; BIODEM_GPU_OWN_SPHERE=1 unused (no row walk)"
+                               : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+    if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
+      r += "; BIODEM_GPU_BODY_LANES unused (the order-free family has its own body kernel)";
+    else if (body_lanes_log2_ && !single_spheres_)
+      r += "; the clumps' body kernel between list checks by " + std::to_string(1u << body_lanes_log2_) +
+           " lanes per body (BIODEM_GPU_BODY_LANES" +
            (body_lanes_auto_ ? "=auto" : "") + "; on CPU threads one)";
     return r;
   }
@@ -1467,8 +1472,11 @@ inline void Engine::fused_unit(bool from_second) {
     return;
   }
   compute_forces(halt());
-  if (body_lanes_log2_ && !single_spheres_) System::launch_groups(nb(), ReduceKickDriftLanes{rkd}, body_lanes_log2_);
-  else launch(nb(), rkd);
+  if (body_lanes_log2_ && !single_spheres_) {
+    if (nb()) System::launch_groups(nb(), ReduceKickDriftLanes{rkd}, body_lanes_log2_);
+  } else {
+    launch(nb(), rkd);
+  }
 }
 
 template <bool Cohesion, bool Rolling>

@@ -1721,7 +1721,10 @@ struct ReduceKickDrift {
 /// ReduceKickDrift in one thread: the offsets are not loaded after the body's stores (on the
 /// H100, 22 % of that kernel's stall samples on the raw drum waited for them), and a needle's
 /// three spheres are placed at once instead of one after another. The same bits
-/// (GroupLanes tests, GpuEngine.BodyLanesGiveTheBitsOfReduceKickDrift).
+/// (BodyLanes.GroupsOfThreadLanesGiveTheBitsOfReduceKickDrift,
+/// GpuEngine.SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays). Not for scenes whose
+/// bodies are all centred single spheres (rkd.centred, which it ignores: the engine launches
+/// it only in scenes with clumps).
 struct ReduceKickDriftLanes {
   ReduceKickDrift rkd;
   template <class Group>
@@ -1830,7 +1833,9 @@ struct CopySphereMotion {
     position_to[i] = position[i];
     velocity_to[i] = velocity[i];
     omega_to[i] = omega[i];
+#ifndef BIODEM_GPU_NO_RECORD_PATHS
     if (record) record_to[i] = record[i];
+#endif
   }
 };
 
