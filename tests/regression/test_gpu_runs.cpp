@@ -309,7 +309,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_TEST_GPU_FAULT_IN_THRUST=2", "BIODEM_GPU_SUM_LANES=2", "BIODEM_GPU_WALK_KICK=yes",
                                 "BIODEM_GPU_PDL=on", "BIODEM_GPU_SUMS=sorted",
                                 "BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUM_LANES=1",
-                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1", "BIODEM_GPU_PAIR_LIST=short"}) {
+                                "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1", "BIODEM_GPU_PAIR_LIST=short",
+                                "BIODEM_GPU_RECORDS=2", "BIODEM_GPU_OWN_SPHERE=yes", "BIODEM_GPU_BODY_LANES=3"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -320,10 +321,15 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   }
   const std::string ok = fresh_dir("gpu_good_switch");  // the documented values run
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 "
-                       "BIODEM_GPU_BUILD_LANES=1 BIODEM_GPU_SUM_LANES=auto BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_PDL=0 " +
+                       "BIODEM_GPU_BUILD_LANES=1 BIODEM_GPU_SUM_LANES=auto BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_PDL=0 "
+                       "BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto " +
                        biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
+  // (run.log says how the spheres were read and the needles' body kernel ran)
+  const std::string how = slurp(ok + "/run.log");
+  EXPECT_NE(how.find("BIODEM_GPU_RECORDS=1"), std::string::npos) << how;
+  EXPECT_NE(how.find("by 4 lanes per body (BIODEM_GPU_BODY_LANES=auto"), std::string::npos) << how;
   const std::string fixed = fresh_dir("gpu_fixed_sums");  // the order-free family runs and says so
   r = run_command("BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=auto " + biodem_exe() + " run " + kNeedles + " --out " +
                   fixed + " --device " + gpu_device());
