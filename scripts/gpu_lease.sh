@@ -32,7 +32,11 @@
 # GPU_LEASE_SASS_NCU_S, 90, for each of its three ncu runs), GPU_LEASE_SWEEP_S
 # (200), GPU_LEASE_SWEEP_SETTINGS (run_gpu_sweep.sh's SWEEP_SETTINGS), GPU_LEASE_SCALING_S (120),
 # GPU_LEASE_CPU_THREADS (CPU engine threads beside the GPU bench; default all, empty: none),
-# GPU_LEASE_SOURCE_DIR (where the build was configured; default: devcarry/source_dir).
+# GPU_LEASE_SOURCE_DIR (where the build was configured; default: devcarry/source_dir),
+# GPU_LEASE_TOTAL_S (the whole call's limit, e.g. the device call's timeout: each step's limit is
+# then cut so that the steps end GPU_LEASE_RESERVE_S, default 30, before it, and the report, log
+# and CSV files go to GPU_LEASE_RETURN after each step, so that a call killed at its limit still
+# brings back what it measured).
 set -uo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
@@ -90,6 +94,28 @@ if [ -d devcarry/build-gpu ]; then rm -rf build-gpu && mv devcarry/build-gpu bui
 if ! build-gpu/biodem --help > /dev/null 2>&1; then export LD_LIBRARY_PATH=$PWD/devcarry/lib; fi
 t0=$(date +%s)
 stamp() { echo "[$(( $(date +%s) - t0 )) s] $*" | tee -a "$O/lease.log"; }
+# A step's limit: its own (the argument), cut to what GPU_LEASE_TOTAL_S leaves (at least 1 s).
+lim() {
+  local want=$1 left
+  if [ -n "${GPU_LEASE_TOTAL_S:-}" ]; then
+    left=$(( GPU_LEASE_TOTAL_S - ${GPU_LEASE_RESERVE_S:-30} - ($(date +%s) - t0) ))
+    [ "$left" -lt 1 ] && left=1
+    [ "$want" -gt "$left" ] && want=$left
+  fi
+  echo "$want"
+}
+# The results so far to GPU_LEASE_RETURN (the report, the log, the CSV files; lease.tgz at the end).
+collect() {
+  cp "$O/check/report.md" "$O/report.md" 2>/dev/null
+  variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\|fixed\)$' | tr '\n' ' ')
+  for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+  cp "$O/sweep/sweep.csv" "$O/sweep_results.csv" 2>/dev/null
+  if [ -n "${GPU_LEASE_RETURN:-}" ]; then
+    mkdir -p "$GPU_LEASE_RETURN"
+    cp "$O"/report.md "$O"/lease.log "$O"/*_results.csv "$GPU_LEASE_RETURN"/ 2>/dev/null
+  fi
+  return 0
+}
 
 stamp "0. device"
 { nvidia-smi; nvcc --version; uname -a; nproc; ldd build-gpu/biodem; } > "$O/env.txt" 2>&1
@@ -105,58 +131,59 @@ if [ $smoke -ne 0 ]; then  # the engine does not run: no timings; the checks, wi
   check_tmo=30
 elif want bench; then
 stamp "1. bench: GPU and the CPU engine on $(nproc) threads"
-DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="${GPU_LEASE_CPU_THREADS-$(nproc)}" timeout "${GPU_LEASE_BENCH_S:-200}" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
+DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench" CPU_THREADS="${GPU_LEASE_CPU_THREADS-$(nproc)}" timeout "$(lim "${GPU_LEASE_BENCH_S:-200}")" bash bench/run_gpu_bench.sh > "$O/bench.txt" 2>&1
 stamp "bench: status $?"
-BIODEM_GPU_SUMS=fixed DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_fixed" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fixed.txt" 2>&1
+BIODEM_GPU_SUMS=fixed DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_fixed" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_fixed.txt" 2>&1
 stamp "bench with the order-free family (BIODEM_GPU_SUMS=fixed): status $?"
-BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_entries" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_entries.txt" 2>&1
+BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_entries" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_entries.txt" 2>&1
 stamp "bench with the entry force kernels (BIODEM_GPU_FORCES=entries): status $?"
 if [ -x devcarry/fmad/biodem ]; then  # made by --prepare --fmad
-  DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
+  DEVICE=gpu BIODEM=devcarry/fmad/biodem OUT="$O/bench_fmad" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_fmad.txt" 2>&1
   stamp "bench -fmad=true: status $?"
 fi
 for vb in devcarry/variants/*/biodem; do  # made by --prepare with GPU_LEASE_VARIANTS
   [ -x "$vb" ] || continue
   name=$(basename "$(dirname "$vb")")
-  DEVICE=gpu BIODEM=$vb OUT="$O/bench_$name" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_$name.txt" 2>&1
+  DEVICE=gpu BIODEM=$vb OUT="$O/bench_$name" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_$name.txt" 2>&1
   stamp "bench variant $name ($(cat "$(dirname "$vb")/flag")): status $?"
-  BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=$vb OUT="$O/bench_${name}_entries" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_${name}_entries.txt" 2>&1
+  BIODEM_GPU_FORCES=entries DEVICE=gpu BIODEM=$vb OUT="$O/bench_${name}_entries" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_${name}_entries.txt" 2>&1
   stamp "bench variant $name, entry kernels forced: status $?"
 done
-BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CPU_THREADS="" timeout "${GPU_LEASE_BENCH2_S:-60}" bash bench/run_gpu_bench.sh > "$O/bench_rows.txt" 2>&1
+BIODEM_GPU_FORCES=rows DEVICE=gpu BIODEM=build-gpu/biodem OUT="$O/bench_rows" CPU_THREADS="" timeout "$(lim "${GPU_LEASE_BENCH2_S:-60}")" bash bench/run_gpu_bench.sh > "$O/bench_rows.txt" 2>&1
 stamp "bench with the row-walk force kernel (BIODEM_GPU_FORCES=rows): status $?"
+collect
 fi
 
 if [ $smoke -eq 0 ] && want sass; then  # what the kernels are made of and where they wait, per instruction
   stamp "1b. bench/gpu_sass.sh: SASS of the step kernels, ncu stall samples per instruction"
-  BIODEM=build-gpu/biodem OUT="$O/sass" SASS_NCU_S="${GPU_LEASE_SASS_NCU_S:-90}" timeout "${GPU_LEASE_SASS_S:-300}" bash bench/gpu_sass.sh > "$O/sass.txt" 2>&1
+  BIODEM=build-gpu/biodem OUT="$O/sass" SASS_NCU_S="${GPU_LEASE_SASS_NCU_S:-90}" timeout "$(lim "${GPU_LEASE_SASS_S:-300}")" bash bench/gpu_sass.sh > "$O/sass.txt" 2>&1
   stamp "sass: status $? ($(grep -h '^SASS:\|^ncu' "$O/sass.txt" | tr '\n' ';'))"
+  collect
 fi
 if want check; then
   stamp "2. scripts/gpu_check.sh"
   GPU_CHECK_BUILD=0 GPU_CHECK_BUILD_DIR=build-gpu GPU_CHECK_BENCH=0 GPU_CHECK_TIMEOUT=$check_tmo GPU_CHECK_OUT="$O/check" \
-    timeout "${GPU_LEASE_CHECK_S:-260}" bash scripts/gpu_check.sh > "$O/check.txt" 2>&1
+    timeout "$(lim "${GPU_LEASE_CHECK_S:-260}")" bash scripts/gpu_check.sh > "$O/check.txt" 2>&1
   stamp "gpu_check: status $?"
+  collect
 fi
 if [ $smoke -eq 0 ] && want sweep; then
   stamp "3. bench/run_gpu_sweep.sh: kernel durations, launch settings"
   sweep_env=()
   [ -n "${GPU_LEASE_SWEEP_SETTINGS+set}" ] && sweep_env=("SWEEP_SETTINGS=$GPU_LEASE_SWEEP_SETTINGS")
-  env "${sweep_env[@]}" BIODEM=build-gpu/biodem OUT="$O/sweep" timeout "${GPU_LEASE_SWEEP_S:-200}" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
+  env "${sweep_env[@]}" BIODEM=build-gpu/biodem OUT="$O/sweep" timeout "$(lim "${GPU_LEASE_SWEEP_S:-200}")" bash bench/run_gpu_sweep.sh > "$O/sweep.txt" 2>&1
   stamp "sweep: status $?"
-  cp "$O/sweep/sweep.csv" "$O/sweep_results.csv" 2>/dev/null
+  collect
 fi
 if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with a 3,000-step settle
   stamp "4. bench/run_scaling.sh (CPU engine, raw drum, settle shortened to 3,000 steps)"
   sed 's/^steps = 30000/steps = 3000/' bench/cases/raw_bench.toml > "$O/raw_scaling.toml"
-  BIODEM=build-gpu/biodem OUT="$O/scaling" timeout "${GPU_LEASE_SCALING_S:-120}" bash bench/run_scaling.sh "$O/raw_scaling.toml" > "$O/scaling.txt" 2>&1
+  BIODEM=build-gpu/biodem OUT="$O/scaling" timeout "$(lim "${GPU_LEASE_SCALING_S:-120}")" bash bench/run_scaling.sh "$O/raw_scaling.toml" > "$O/scaling.txt" 2>&1
   stamp "scaling: status $?"
   cp "$O"/scaling/scaling_*.csv "$O/scaling_results.csv" 2>/dev/null
 fi
 
-cp "$O/check/report.md" "$O/report.md" 2>/dev/null
-variant_benches=$(cd "$O" && ls -d bench_*/ 2>/dev/null | tr -d / | grep -v '^bench_\(entries\|rows\|fmad\|fixed\)$' | tr '\n' ' ')
-for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do cp "$O/$b/gpu_results.csv" "$O/${b}_results.csv" 2>/dev/null; done
+collect
 (cd "$O" && tar czf lease.tgz --exclude '*.vtu' --exclude '*.ncu-rep' --exclude 'lease.tgz' --exclude 'checkpoint*.bin' . 2>/dev/null)
 if [ -n "${GPU_LEASE_RETURN:-}" ]; then
   mkdir -p "$GPU_LEASE_RETURN"
