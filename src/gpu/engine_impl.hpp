@@ -174,7 +174,7 @@ class Engine final : public DeviceEngine {
     }
     // BIODEM_GPU_RECORDS=1: the contact kernels read each sphere from one 96-byte record
     // (SphereRecord, kept beside the arrays) instead of six arrays; BIODEM_GPU_OWN_SPHERE=1: the
-    // row walk by one thread loads its own sphere once per row (Forces::walk_own). The same bits
+    // row walk by one thread loads its own sphere once per row (Forces::walk_heads<true>). The same bits
     // either way; both off by default until timed on a GPU (docs/gpu.md, section 4).
     for (const auto& [name, flag] : {std::pair<const char*, bool*>{"BIODEM_GPU_RECORDS", &records_},
                                      std::pair<const char*, bool*>{"BIODEM_GPU_OWN_SPHERE", &own_sphere_}})

@@ -929,7 +929,7 @@ struct ContactArgs {
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
   const std::uint32_t* halt;
-  /// The walk by one thread holds its own sphere's data for the whole row (Forces::walk_own;
+  /// The walk by one thread holds its own sphere's data for the whole row (Forces::walk_heads<true>;
   /// BIODEM_GPU_OWN_SPHERE=1) instead of loading it again at each entry.
   bool own_sphere = false;
   /// The pairs' lower-id entries and the wall slots within reach, listed at each list build
@@ -1539,50 +1539,44 @@ struct Forces : ContactArgs {
     if (halted(w.halt)) return;
 #ifndef BIODEM_GPU_NO_RECORD_PATHS
     if (w.own_sphere) {
-      walk_own<W>(w, a, sums);
+      walk_heads<true>(w, a, sums);
       return;
     }
 #endif
+    walk_heads<false>(w, a, sums);
+  }
+  /// walk_prefetched's walk. Own (BIODEM_GPU_OWN_SPHERE=1): the row's own sphere loaded once,
+  /// with its stable id and row length, and held for every entry and wall, so that each entry
+  /// loads only its neighbour; the same contacts in the same order with the same values, so the
+  /// same bits.
+  template <bool Own, class W, class Sums>
+  BIODEM_HD static void walk_heads(const W& w, std::uint32_t a, Sums& sums) {
     const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
+    SphereState own{};
+    if constexpr (Own) own = load_sphere(w.s, a);
     EntryHead next = w.entry_head(a);  // entry 0 (in the arrays whatever the row's length)
     for (std::uint32_t v = 0; v < len; ++v) {
       const EntryHead e = next;
       if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
       RowContact r;
       bool a_low = false;
-      if (w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low))
-        r.kind = a_low ? 1 : 2;
-      sums.add(r);
-    }
-    const WalkStart st{a, sid_a, len, len + w.n_walls};
-    for (std::uint32_t v = len; v < st.total; ++v) sums.add(w.walk_entry(st, v));
-    Vec3 f, t;
-    std::uint32_t count = 0;
-    sums.finish(f, t, count);
-    w.walk_end(a, st, f, t, count);
-  }
-  /// walk_prefetched with the row's own sphere loaded once, with its stable id and row length,
-  /// and held for every entry and wall (BIODEM_GPU_OWN_SPHERE=1): each entry loads only its
-  /// neighbour. The same contacts in the same order with the same values: the same bits.
-  template <class W, class Sums>
-  BIODEM_HD static void walk_own(const W& w, std::uint32_t a, Sums& sums) {
-    const std::uint32_t sid_a = w.s.sid[a], len = w.rows.length[a];
-    const SphereState own = load_sphere(w.s, a);
-    EntryHead next = w.entry_head(a);
-    for (std::uint32_t v = 0; v < len; ++v) {
-      const EntryHead e = next;
-      if (v + 1 < len) next = w.entry_head((v + 1) * w.n + a);
-      RowContact r;
-      bool a_low = false;
-      if (w.template pair_entry_own<Cohesion, Rolling>(e, own, sid_a, v * w.n + a, r.force, r.torque, a_low))
-        r.kind = a_low ? 1 : 2;
+      bool touching;
+      if constexpr (Own)
+        touching = w.template pair_entry_own<Cohesion, Rolling>(e, own, sid_a, v * w.n + a, r.force, r.torque, a_low);
+      else
+        touching = w.template pair_entry_from<Cohesion, Rolling>(e, a, sid_a, v * w.n + a, r.force, r.torque, a_low);
+      if (touching) r.kind = a_low ? 1 : 2;
       sums.add(r);
     }
     const WalkStart st{a, sid_a, len, len + w.n_walls};
     for (std::uint32_t v = len; v < st.total; ++v) {
-      RowContact r;
-      if (w.template wall_contact<Cohesion, Rolling>(a, v - len, own, r.force, r.torque)) r.kind = 3;
-      sums.add(r);
+      if constexpr (Own) {
+        RowContact r;
+        if (w.template wall_contact<Cohesion, Rolling>(a, v - len, own, r.force, r.torque)) r.kind = 3;
+        sums.add(r);
+      } else {
+        sums.add(w.walk_entry(st, v));
+      }
     }
     Vec3 f, t;
     std::uint32_t count = 0;
