@@ -65,8 +65,10 @@
 #                        walk with the body update on that scene, fixed: the order-free
 #                        family on the 40k drum, records: the one-thread walk reading the
 #                        spheres' records, own sphere held, and the clumps' body kernel by
-#                        lanes, on the 40k drum); default the twelve of
-#                        docs/gpu.md section 6, empty: none
+#                        lanes, on the 40k drum, kickgroups: the clumps' row walk with the
+#                        body update by groups of lanes per body, records, on the 40k
+#                        drum); default the twelve of docs/gpu.md section 6,
+#                        empty: none
 #   GPU_CHECK_BENCH      0: skip check 7 (default 1 on a GPU, 0 emulated)
 #   GPU_CHECK_THREADS    CPU threads of the CPU-engine and emulated runs (default 1)
 #   CUDA_ARCH            CMAKE_CUDA_ARCHITECTURES for the build (default 90: H100/H200)
@@ -280,18 +282,23 @@ BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem needles_full_pass
 # (the spheres read from their records, and the one-thread walk holding its own sphere)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 run_biodem needles_records_rows "$needles" "$OUT/needles_records_rows" --device "$DEVICE"; sq=$?
 BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 BIODEM_GPU_BODY_LANES=auto run_biodem needles_records_entries "$needles" "$OUT/needles_records_entries" --device "$DEVICE"; sx=$?
-lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d=""
-lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto) forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt)"
+# (the clumps' row walk with the body update by a group of lanes per body, two buffers)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem needles_walk_kick "$needles" "$OUT/needles_walk_kick" --device "$DEVICE"; sk=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d7=""; d=""
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), the walk with the body update by groups of lanes per body (BIODEM_GPU_WALK_KICK=1) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sk -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt, needles_walk_kick.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
      ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass") ||
-     ! d5=$(same_files "$OUT/needles_a" "$OUT/needles_records_rows") || ! d6=$(same_files "$OUT/needles_a" "$OUT/needles_records_entries"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6)"
+     ! d5=$(same_files "$OUT/needles_a" "$OUT/needles_records_rows") || ! d6=$(same_files "$OUT/needles_a" "$OUT/needles_records_entries") ||
+     ! d7=$(same_files "$OUT/needles_a" "$OUT/needles_walk_kick"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6 $d7)"
 elif ! grep -q 'BIODEM_GPU_RECORDS=1' "$OUT/needles_records_rows/run.log" || ! grep -q 'BIODEM_GPU_OWN_SPHERE=1' "$OUT/needles_records_rows/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 does not say so in run.log"
 elif ! grep -q 'by 4 lanes per body' "$OUT/needles_records_entries/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_BODY_LANES=auto does not report 4 lanes per body in run.log"
+elif ! grep -q 'in groups of 4 lanes per body (ForcesKickDriftGroups' "$OUT/needles_walk_kick/run.log"; then
+  lanes_ok=0; lanes_detail="the run with BIODEM_GPU_WALK_KICK=1 does not report the walk with the body update by 4 lanes per body in run.log"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -312,6 +319,13 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' body kernel by 2 and 32 lanes x blocks of 32, 512 byte-identical"
+  # (the walk with the body update in blocks of 32 and 512: its groups at other places in a block)
+  for block in 32 512; do
+    why=$(variant_same "$OUT/needles_rows" "needles_walk_kick_block$block" BIODEM_GPU_FORCES=rows \
+          BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_BLOCK=$block) ||
+      { lanes_ok=0; lanes_detail="$lanes_detail; walk with the body update, blocks of $block: $why"; }
+  done
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' walk with the body update in blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
@@ -512,7 +526,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:spheres memcheck:walkkick memcheck:fixed memcheck:records synccheck:records}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -525,6 +539,8 @@ if [ "$DEVICE" = gpu ]; then
       walkkick) what=", row walk in one thread with the body update (two buffers)"
                 envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1)
                 scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
+      kickgroups) what=", the clumps' row walk with the body update by groups of lanes per body (two buffers), records"
+                  envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_RECORDS=1) ;;
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
       records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"
                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto) ;;

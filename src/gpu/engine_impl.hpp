@@ -135,10 +135,10 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_SUM_LANES = '" + v + "': expected 0, 1 or auto");
       sum_lanes_mode_ = v == "1" ? SumLanes::on : v == "0" ? SumLanes::off : SumLanes::automatic;
     }
-    // BIODEM_GPU_WALK_KICK=1|0|auto: in scenes of single-sphere bodies, the row walk and the body
-    // update in one kernel (ForcesKickDrift, the sphere motion in two buffers), or apart (Forces,
-    // ReduceKickDrift); auto: a fifth set of the timed choice on a GPU, apart elsewhere. The same
-    // bits either way.
+    // BIODEM_GPU_WALK_KICK=1|0|auto: the row walk and the body update in one kernel (single-sphere
+    // bodies: ForcesKickDrift; clumps of up to 32 spheres: ForcesKickDriftGroups, a group of lanes
+    // per body; the sphere motion in two buffers), or apart (Forces, ReduceKickDrift); auto: a
+    // fifth set of the timed choice on a GPU, apart elsewhere. The same bits either way.
     if (const char* wk = std::getenv("BIODEM_GPU_WALK_KICK"); wk && *wk) {
       const std::string v(wk);
       if (v != "0" && v != "1" && v != "auto")
@@ -324,7 +324,10 @@ class Engine final : public DeviceEngine {
                                                                : "per-sphere row walk (ForcesFixed)" + fixed_note)
                           : use_entry_kernels() ? std::string("per-contact (PairEntries, SumEntries") +
                                                       (sum_lanes() ? " by the " + System::walk_lanes() + ")" : ")")
-                                                : walk_kick() ? "per-sphere row walk with the body update (ForcesKickDrift)"
+                                                : walk_kick() ? (single_spheres_ ? std::string("per-sphere row walk with the body update (ForcesKickDrift)")
+                                                                                 : "per-sphere row walk with the body update in groups of " +
+                                                                                       std::to_string(1u << walk_kick_lanes_log2_) +
+                                                                                       " lanes per body (ForcesKickDriftGroups; on CPU threads one lane)")
                                                               : "per-sphere row walk (Forces)";
     return contact_set(set) + loads_note();
   }
@@ -334,9 +337,13 @@ class Engine final : public DeviceEngine {
     if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
     if (own_sphere_)
       r += use_entry_kernels() ? "; BIODEM_GPU_OWN_SPHERE=1 unused (no row walk)"
-                               : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+           : walk_kick() && !single_spheres_
+               ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the clumps' walk with the body update loads both spheres per entry)"
+               : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
     if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
       r += "; BIODEM_GPU_BODY_LANES unused (the order-free family has its own body kernel)";
+    else if (body_lanes_log2_ && !single_spheres_ && walk_kick())
+      r += "; BIODEM_GPU_BODY_LANES unused (the walk with the body update has its own groups of lanes)";
     else if (body_lanes_log2_ && !single_spheres_)
       r += "; the clumps' body kernel between list checks by " + std::to_string(1u << body_lanes_log2_) +
            " lanes per body (BIODEM_GPU_BODY_LANES" +
@@ -361,14 +368,18 @@ class Engine final : public DeviceEngine {
       return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
              " choice(s) in the run so far)";
     const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
-    return set + (use_entry_kernels() ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
+    const bool groups = walk_kick() && !single_spheres_;  // (the set names its groups of lanes)
+    return set + (use_entry_kernels() || groups ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
            System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
-           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk in one " +
-           "thread with the body update " + us(tuning_.median[4]) +
-           (single_spheres_ ? " us/step (" : " us/step (as one thread: not a scene of single spheres; ") +
+           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk " +
+           (single_spheres_ ? std::string("in one thread")
+                            : "in groups of " + std::to_string(1u << std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u)) +
+                                  " lanes per body") +
+           " with the body update " + us(tuning_.median[4]) +
+           (walk_kick_fits() ? " us/step (" : " us/step (as one thread: a body of more than 32 spheres; ") +
            std::to_string(tuning_.choices) + " choice(s) in the run: after each upload, at each phase start and every " +
            std::to_string(retime_every_) + " steps)";
   }
@@ -652,7 +663,8 @@ class Engine final : public DeviceEngine {
   /// steps, 25 and 18 us/step at rest). A timing costs about 160 steps of the slower sets.
   static constexpr std::uint32_t kTuneSets = 5;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
                                                  // [3] entries with the sums by the row lanes, [4] walk, one
-                                                 // thread, with the body update (single spheres; else as [2])
+                                                 // thread per sphere, with the body update (single spheres:
+                                                 // ForcesKickDrift; clumps: ForcesKickDriftGroups; else as [2])
   static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
   static constexpr std::uint64_t kRetimeSteps = 20000;
   std::uint64_t retime_every_ = kRetimeSteps;
@@ -695,16 +707,23 @@ class Engine final : public DeviceEngine {
   bool walk_single() const {
     return timed_choice() && !use_entry_kernels() && (tuned_set() == 2 || tuned_set() == 4);
   }
-  /// In single-sphere scenes, the row walk fused with the body update (ForcesKickDrift;
-  /// BIODEM_GPU_WALK_KICK; the timed choice's fifth set), in the fused units of a row walk.
+  /// The row walk fused with the body update (single-sphere scenes: ForcesKickDrift; clumps of up
+  /// to 32 spheres: ForcesKickDriftGroups; BIODEM_GPU_WALK_KICK; the timed choice's fifth set),
+  /// in the fused units of a row walk.
   enum class WalkKick { automatic, off, on };
   WalkKick walk_kick_mode_ = WalkKick::automatic;
   bool walk_kick() const {
-    if (!single_spheres_ || entries_ready() || fixed_sums_) return false;  // (the order-free family has none)
+    if (entries_ready() || fixed_sums_) return false;  // (the order-free family has none)
+    if (!walk_kick_fits()) return false;
     if (walk_kick_mode_ != WalkKick::automatic) return walk_kick_mode_ == WalkKick::on;
     return timed_choice() && tuned_set() == 4;
   }
   std::uint64_t walk_kick_units_ = 0;
+  // In scenes of clumps, ForcesKickDriftGroups' lanes per body (log2; upload: the most spheres
+  // of a body rounded up to a power of two; above 5, more than 32: no such set).
+  std::uint32_t walk_kick_lanes_log2_ = 0;
+  /// The scene has a kernel for the walk with the body update (not for a body of more than 32 spheres).
+  bool walk_kick_fits() const { return single_spheres_ || walk_kick_lanes_log2_ <= 5; }
   vec<Vec3> s_pos2_, s_vel2_, s_omega2_;  // the sphere motion's second buffer (ForcesKickDrift)
   // The spheres' records (BIODEM_GPU_RECORDS=1; SphereRecord), and those of the second buffer.
   bool records_ = false, own_sphere_ = false;
@@ -952,11 +971,12 @@ inline void Engine::upload() {
   // (a body sort keeps both: a one-sphere body's sphere moves with it, its offset with it)
   centred_spheres_ = single_spheres_ && std::all_of(s.offset_body_m.begin(), s.offset_body_m.end(),
                                                     [](const Vec3& o) { return o == Vec3{}; });
-  if (body_lanes_auto_) {
+  {
     std::uint32_t most = 1;
     for (std::uint32_t c : b.sphere_count) most = std::max(most, c);
-    body_lanes_log2_ = 0;
-    while (body_lanes_log2_ < 5 && (1u << body_lanes_log2_) < most) ++body_lanes_log2_;
+    walk_kick_lanes_log2_ = 0;
+    while (walk_kick_lanes_log2_ < 6 && (1u << walk_kick_lanes_log2_) < most) ++walk_kick_lanes_log2_;
+    if (body_lanes_auto_) body_lanes_log2_ = std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u);
   }
 
   const std::size_t n = s.size();
@@ -974,7 +994,7 @@ inline void Engine::upload() {
   to_device(s_pos_, s.position_m);
   to_device(s_vel_, s.velocity_m_s);
   to_device(s_omega_, s.angular_velocity_rad_s);
-  if (single_spheres_) {  // (ForcesKickDrift's second buffer: written before it is read)
+  if (walk_kick_fits()) {  // (ForcesKickDrift's second buffer: written before it is read)
     s_pos2_.resize(n);
     s_vel2_.resize(n);
     s_omega2_.resize(n);
@@ -1066,7 +1086,7 @@ inline void Engine::upload() {
 
   if (records_) {
     s_rec_.resize(n);
-    s_rec2_.resize(single_spheres_ ? n : 0);
+    s_rec2_.resize(walk_kick_fits() ? n : 0);
     pack_records();  // (radii, masses, materials; SpheresFromBodies writes the motion)
   }
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
@@ -1450,7 +1470,7 @@ inline void Engine::fused_unit(bool from_second) {
     launch(nb(), ReduceKickDriftFixed{rkd, fx, single_spheres_});
     return;
   }
-  if (walk_kick()) {  // glass beads, row walk: the body update inside the walk, two buffers
+  if (walk_kick()) {  // row walk: the body update inside the walk, two buffers
     ContactArgs c = contact_args(halt());
     ReduceKickDrift out = rkd;
     if (from_second) c.s = second_motion(c.s);
@@ -1506,6 +1526,13 @@ inline void Engine::fixed_grid() {
 
 template <bool Cohesion, bool Rolling>
 void Engine::launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd) {
+  if (!single_spheres_) {  // clumps: a group of lanes per body (ForcesKickDriftGroups)
+    ForcesKickDriftGroups<Cohesion, Rolling> g;
+    static_cast<ContactArgs&>(g.walk) = c;
+    g.out = ReduceKickDriftLanes{rkd};
+    if (nb()) System::launch_groups(nb(), g, walk_kick_lanes_log2_);
+    return;
+  }
   ForcesKickDrift<Cohesion, Rolling> w;
   static_cast<ContactArgs&>(w) = c;
   w.rkd = rkd;

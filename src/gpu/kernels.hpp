@@ -1724,12 +1724,21 @@ struct ReduceKickDriftLanes {
   template <class Group>
   BIODEM_HD void run(std::uint32_t k, const Group& grp) const {
     if (halted(rkd.halt)) return;  // (the same flag for every lane of the group)
+    run_summing(k, grp, rkd.s);
+  }
+  /// run's body update with the body sums taken from `sums_from` (the spheres' forces, torques
+  /// and the centres they were computed at) and the spheres placed in rkd.s: the same array set
+  /// for run; the walk's buffer for ForcesKickDriftGroups, whose rkd.s is the other buffer.
+  template <class Group>
+  BIODEM_HD void run_summing(std::uint32_t k, const Group& grp, const SphereArrays& sums_from) const {
     const std::uint32_t lanes = grp.size(), lane = grp.lane();
     BodyState st = load_body(rkd.b, k);
+    Vec3 f, t;
+    body_sums(rkd.b, sums_from, k, rkd.gravity, f, t);
+    // (after the sums, whose four spheres' loads in flight take the registers, and before the
+    // stores: its wait overlaps the integration)
     Vec3 own_offset{};
     if (lane < st.ns) own_offset = rkd.s.offset[st.s0 + lane];
-    Vec3 f, t;
-    body_sums(rkd.b, rkd.s, k, rkd.gravity, f, t);
     grp.sync();  // (every lane's loads of the body and its spheres before the stores below)
     integrate::half_kick_then_kick_and_drift(st.x, st.v, st.w, st.l, st.q, st.m, st.inertia, st.ns, f, t, rkd.h,
                                              rkd.dt);
@@ -1815,6 +1824,47 @@ struct ForcesKickDrift : Forces<Cohesion, Rolling> {
 };
 static_assert(WalksHeadsAhead<ForcesKickDrift<false, false>>::value && WalksHeadsAhead<Forces<true, true>>::value,
               "the row lanes of the walk load their heads ahead");
+
+/// In a scene of clumps, ForcesKickDrift's fusion by a group of lanes per body
+/// (BIODEM_GPU_WALK_KICK; the timed choice's fifth set there; on CUDA the lanes of one warp, at
+/// least as many as the body's most spheres, on CPU threads one lane): lane l walks the rows of
+/// the body's spheres l, l + lanes, ... in one thread each (walk(a): Forces' walk, which stores
+/// sphere a's force, torque and contact count in walk.s), and after the group's sync the lanes
+/// finish body k as ReduceKickDriftLanes does, with the body sums read from the walk's buffer
+/// (walk.s: the centres the forces were computed at) and the spheres placed in the other
+/// (out.rkd.s), the two swapped every step as for ForcesKickDrift. Against Forces then
+/// ReduceKickDrift: one launch fewer per step, and the body update of a group starts as soon as
+/// its own spheres' walks end instead of after the slowest walk of the grid. The same operations
+/// on the same values: the same bits (BodyLanes.WalkAndBodyUpdateByGroupsGiveTheBitsOfTheTwoKernels
+/// with groups of thread lanes; GpuEngine.WalkWithTheBodyUpdateGivesTheBitsOfTheWalkAndReduceKickDrift
+/// in the engine; gpu_check 3i on a GPU).
+template <class Walk>
+struct WalkKickGroups {
+  Walk walk;
+  ReduceKickDriftLanes out;
+  template <class Group>
+  BIODEM_HD void run(std::uint32_t k, const Group& grp) const {
+    if (halted(out.rkd.halt)) return;  // (the same flag for every lane of the group)
+    const std::uint32_t s0 = out.rkd.b.first_sphere[k], ns = out.rkd.b.sphere_count[k];
+    for (std::uint32_t c = grp.lane(); c < ns; c += grp.size()) walk(s0 + c);
+    grp.sync();  // (every lane's sphere sums stored before any lane loads them)
+    out.run_summing(k, grp, walk.s);
+  }
+  BIODEM_HD void operator()(std::uint32_t k) const { run(k, OneLane{}); }
+};
+/// Forces' one-thread walk without the own-sphere variant (BIODEM_GPU_OWN_SPHERE): compiled into
+/// WalkKickGroups with the body update, that variant's registers made ptxas spill (sm_90: 36
+/// bytes with cohesion and rolling friction; none without it).
+template <bool Cohesion, bool Rolling>
+struct ForcesWalkArrays : Forces<Cohesion, Rolling> {
+  BIODEM_HD void operator()(std::uint32_t a) const {
+    if (halted(this->halt)) return;
+    OrderedWalkSums sums;
+    Forces<Cohesion, Rolling>::template walk_heads<false>(*this, a, sums);
+  }
+};
+template <bool Cohesion, bool Rolling>
+using ForcesKickDriftGroups = WalkKickGroups<ForcesWalkArrays<Cohesion, Rolling>>;
 
 /// The sphere motion that ForcesKickDrift wrote to the other buffer, copied back (after an odd
 /// number of its steps, so that the engine's arrays hold the state between runs).

@@ -896,3 +896,85 @@ TEST(BodyLanes, GroupsOfThreadLanesGiveTheBitsOfReduceKickDrift) {
     EXPECT_GT(turned, kBodies / 2);
   }
 }
+
+namespace {
+
+/// A made-up walk for WalkKickGroups: sphere a's force, torque and contact count from its own
+/// motion and a far sphere's centre (another body's, so that a placement into the buffer the
+/// walks read would show), stored in s as Forces' walk stores them.
+struct SpringWalk {
+  SphereArrays s;
+  std::uint32_t n = 0;
+  void operator()(std::uint32_t a) const {
+    const Vec3 d = s.position[a] - s.position[(7 * a + 3) % n];
+    s.force[a] = 1e-2 * d + 1e-4 * s.velocity[a];
+    s.torque[a] = 1e-6 * cross(d, s.omega[a]);
+    s.contacts[a] = a % 4;
+  }
+};
+
+}  // namespace
+
+// The clumps' row walk with the body update by a group of lanes per body (WalkKickGroups, what
+// ForcesKickDriftGroups runs on CUDA; the walk here a made-up one) with groups of 1, 2, 4, 8 and
+// 16 thread lanes: bodies of 1 to 11 spheres stepped three times, the walks reading one buffer
+// of the sphere motion and the spheres placed in the other (swapped every step), give the bits
+// of the walk over every sphere then ReduceKickDrift in one thread per body in place, in every
+// body and sphere array, the spheres' forces and the records. (It fails without the group's sync
+// between the walks and the sums, and when the sums read the buffer the spheres are placed in:
+// checked.)
+TEST(BodyLanes, WalkAndBodyUpdateByGroupsGiveTheBitsOfTheTwoKernels) {
+  constexpr std::uint32_t kBodies = 120;
+  for (const bool records : {false, true}) {
+    MadeUpClumps one(kBodies, records);
+    const std::uint32_t n = static_cast<std::uint32_t>(one.sx.size());
+    const ReduceKickDrift r1 = one.kernel();
+    const SpringWalk w1{r1.s, n};
+    for (int step = 0; step < 3; ++step) {
+      for (std::uint32_t a = 0; a < n; ++a) w1(a);
+      for (std::uint32_t k = 0; k < kBodies; ++k) r1(k);
+    }
+    for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 16u}) {
+      MadeUpClumps fused(kBodies, records), other(kBodies, records);  // (other: the second buffer's motion)
+      for (int step = 0; step < 3; ++step) {
+        MadeUpClumps& from = step % 2 == 0 ? fused : other;
+        MadeUpClumps& to = step % 2 == 0 ? other : fused;
+        ReduceKickDrift rk = fused.kernel();  // (the body arrays, forces and offsets: fused's)
+        SphereArrays walk_s = rk.s;
+        walk_s.position = from.sx.data();
+        walk_s.velocity = from.sv.data();
+        walk_s.omega = from.sw.data();
+        walk_s.record = records ? from.rec.data() : nullptr;
+        rk.s.position = to.sx.data();
+        rk.s.velocity = to.sv.data();
+        rk.s.omega = to.sw.data();
+        rk.s.record = records ? to.rec.data() : nullptr;
+        const WalkKickGroups<SpringWalk> g{SpringWalk{walk_s, n}, ReduceKickDriftLanes{rk}};
+        GroupState state(lanes);
+        std::vector<std::thread> team;
+        for (std::uint32_t l = 0; l < lanes; ++l)
+          team.emplace_back([&, l] {
+            const ThreadLanes me{&state, l, lanes};
+            for (std::uint32_t k = 0; k < kBodies; ++k) g.run(k, me);
+          });
+        for (auto& th : team) th.join();
+      }
+      // (after three steps the motion is in the second buffer)
+      fused.sx = other.sx;
+      fused.sv = other.sv;
+      fused.sw = other.sw;
+      fused.rec = other.rec;
+      EXPECT_EQ(fused.first_difference(one), "") << lanes << " lanes" << (records ? ", records" : "");
+      const bool same_forces = std::memcmp(fused.sf.data(), one.sf.data(), n * sizeof(Vec3)) == 0 &&
+                               std::memcmp(fused.st.data(), one.st.data(), n * sizeof(Vec3)) == 0 &&
+                               fused.scont == one.scont;
+      EXPECT_TRUE(same_forces) << lanes << " lanes: the spheres' sums";
+      std::printf("[measured] clumps' walk with the body update by %u lanes vs the walk then ReduceKickDrift%s: "
+                  "%u bodies, %u spheres, 3 steps: %s\n",
+                  lanes, records ? " (records)" : "", kBodies, n,
+                  fused.first_difference(one).empty() && same_forces ? "bit-identical" : "differ");
+    }
+    MadeUpClumps start(kBodies, records);
+    EXPECT_NE(start.first_difference(one), "");  // (the comparison is of changed state)
+  }
+}
