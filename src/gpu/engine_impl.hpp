@@ -373,7 +373,8 @@ class Engine final : public DeviceEngine {
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
-           System::walk_lanes() + ": " + us(tuning_.median[1]) + ", one thread per sphere: " + us(tuning_.median[2]) +
+           System::walk_lanes() + (single_spheres_ ? " with the body update" : "") + ": " + us(tuning_.median[1]) +
+           ", one thread per sphere: " + us(tuning_.median[2]) +
            "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk " +
            (single_spheres_ ? std::string("in one thread")
                             : "in groups of " + std::to_string(1u << std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u)) +
@@ -661,7 +662,8 @@ class Engine final : public DeviceEngine {
   /// inserted (few contacts), where the sets' order can differ from that of a bed at rest (H100,
   /// glass_small: the row walk in one thread and the entry kernels within 1 % over the first 160
   /// steps, 25 and 18 us/step at rest). A timing costs about 160 steps of the slower sets.
-  static constexpr std::uint32_t kTuneSets = 5;  // [0] entries, [1] walk with the row lanes, [2] walk, one thread,
+  static constexpr std::uint32_t kTuneSets = 5;  // [0] entries, [1] walk with the row lanes (single spheres: with
+                                                 // the body update, ForcesKickDrift), [2] walk, one thread,
                                                  // [3] entries with the sums by the row lanes, [4] walk, one
                                                  // thread per sphere, with the body update (single spheres:
                                                  // ForcesKickDrift; clumps: ForcesKickDriftGroups; else as [2])
@@ -708,15 +710,17 @@ class Engine final : public DeviceEngine {
     return timed_choice() && !use_entry_kernels() && (tuned_set() == 2 || tuned_set() == 4);
   }
   /// The row walk fused with the body update (single-sphere scenes: ForcesKickDrift; clumps of up
-  /// to 32 spheres: ForcesKickDriftGroups; BIODEM_GPU_WALK_KICK; the timed choice's fifth set),
-  /// in the fused units of a row walk.
+  /// to 32 spheres: ForcesKickDriftGroups; BIODEM_GPU_WALK_KICK; the timed choice's fifth set,
+  /// and in single-sphere scenes its second, the walk with the row lanes, too), in the fused
+  /// units of a row walk.
   enum class WalkKick { automatic, off, on };
   WalkKick walk_kick_mode_ = WalkKick::automatic;
   bool walk_kick() const {
     if (entries_ready() || fixed_sums_) return false;  // (the order-free family has none)
     if (!walk_kick_fits()) return false;
     if (walk_kick_mode_ != WalkKick::automatic) return walk_kick_mode_ == WalkKick::on;
-    return timed_choice() && tuned_set() == 4;
+    // (in single-sphere scenes the walk with the row lanes, set 1, updates the body too)
+    return timed_choice() && (tuned_set() == 4 || (tuned_set() == 1 && single_spheres_));
   }
   std::uint64_t walk_kick_units_ = 0;
   // In scenes of clumps, ForcesKickDriftGroups' lanes per body (log2; upload: the most spheres

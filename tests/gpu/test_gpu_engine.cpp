@@ -931,7 +931,9 @@ TEST(GpuEngine, TimedKernelChoiceHandsTheHistoryOverBetweenTrials) {
 // with re-timings every 60 steps and one asked for, is bit-identical after every run to the
 // packing stepped with the row walk throughout, and makes more choices than the 2 uploads'.
 TEST(GpuEngine, TimedKernelChoiceIsTimedAgainAtPhasesAndPeriodically) {
-  for (const bool spheres_only : {false, true}) {  // (spheres: the fifth set is ForcesKickDrift)
+  // (spheres: the second and fifth sets update the bodies in the walk, ForcesKickDrift with the
+  // row lanes and in one thread; needles: the fifth, ForcesKickDriftGroups)
+  for (const bool spheres_only : {false, true}) {
     SCOPED_TRACE(spheres_only ? "spheres" : "needles");
     auto a = packing(0.5e-3, true, true, spheres_only), b = packing(0.5e-3, true, true, spheres_only);
     ::setenv("BIODEM_GPU_FORCES", "timed", 1);
