@@ -1856,7 +1856,7 @@ struct WalkKickGroups {
 /// WalkKickGroups with the body update, that variant's registers made ptxas spill (sm_90: 36
 /// bytes with cohesion and rolling friction; none without it).
 template <bool Cohesion, bool Rolling>
-struct ForcesWalkArrays : Forces<Cohesion, Rolling> {
+struct ForcesWalkNoOwn : Forces<Cohesion, Rolling> {
   BIODEM_HD void operator()(std::uint32_t a) const {
     if (halted(this->halt)) return;
     OrderedWalkSums sums;
@@ -1864,7 +1864,7 @@ struct ForcesWalkArrays : Forces<Cohesion, Rolling> {
   }
 };
 template <bool Cohesion, bool Rolling>
-using ForcesKickDriftGroups = WalkKickGroups<ForcesWalkArrays<Cohesion, Rolling>>;
+using ForcesKickDriftGroups = WalkKickGroups<ForcesWalkNoOwn<Cohesion, Rolling>>;
 
 /// The sphere motion that ForcesKickDrift wrote to the other buffer, copied back (after an odd
 /// number of its steps, so that the engine's arrays hold the state between runs).
