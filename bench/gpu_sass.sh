@@ -26,7 +26,7 @@ root=$(dirname "$here")
 BIODEM=${BIODEM:-$root/build/biodem}
 OUT=${OUT:-/tmp/biodem-gpu-sass}
 mkdir -p "$OUT"
-pattern=${SASS_KERNELS:-ReduceKickDrift|SumEntriesKickDrift<|SumEntriesKickDrift>|PairEntries|Forces<|ForcesFixed<|ForcesKickDrift<|KickDriftSpheres|TakeFixedSums}
+pattern=${SASS_KERNELS:-ReduceKickDrift|SumEntriesKickDrift<|SumEntriesKickDrift>|PairEntries|Forces<|ForcesFixed<|ForcesKickDrift<|WalkKickGroups|KickDriftSpheres|TakeFixedSums}
 
 # ------------------------------------------------------------------------------- 1. the SASS
 cuobjdump=$(command -v cuobjdump || echo /usr/local/cuda/bin/cuobjdump)

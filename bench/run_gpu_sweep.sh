@@ -97,7 +97,8 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # timed), then the other changes not yet timed, between two defaults; threads per block and
 # steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2 or
 # 8 lanes and the build by one thread per row, measured in every lease of 2026-11-26 and 27,
-# and the one-thread walk holding its own sphere alone, are left to SWEEP_SETTINGS: 23
+# BIODEM_GPU_QUEUED_CHECK=0 (likewise) and the one-thread walk holding its own sphere alone,
+# are left to SWEEP_SETTINGS: 23
 # settings, about 170 s on the H100 as lease 9's 23)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
@@ -110,7 +111,7 @@ settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+
   BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \
   BIODEM_GPU_PDL=0 BIODEM_GPU_PROFILE=1 \
   BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_WALK_KICK=1 \
-  BIODEM_GPU_QUEUED_CHECK=0 default}
+  BIODEM_GPU_FORCES=rows default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()

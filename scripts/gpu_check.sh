@@ -536,8 +536,8 @@ if [ "$DEVICE" = gpu ]; then
       spheres) what=", entry kernels with the sums by the row lanes in the body kernel"
                envs=(BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1)
                scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
-      walkkick) what=", row walk in one thread with the body update (two buffers)"
-                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=1)
+      walkkick) what=", row walk with the row lanes and the body update (two buffers)"
+                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1)
                 scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       kickgroups) what=", the clumps' row walk with the body update by groups of lanes per body (two buffers), records"
                   envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_RECORDS=1) ;;

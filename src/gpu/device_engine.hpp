@@ -159,9 +159,9 @@ class DeviceEngine {
   /// SumEntriesKickDriftWalk) or by one thread per sphere; the same bits. By default one of the
   /// timed sets on a GPU, one thread on CPU threads; BIODEM_GPU_SUM_LANES=1|0|auto or this switch.
   virtual void set_sum_lanes(bool on) = 0;
-  /// In scenes of single-sphere bodies, the row walk and the body update in one kernel
-  /// (ForcesKickDrift, the sphere motion in two buffers swapped every step) or apart; the same
-  /// bits. By default one of the timed sets on a GPU, apart on CPU threads;
+  /// The row walk and the body update in one kernel (single-sphere bodies: ForcesKickDrift;
+  /// clumps of up to 32 spheres: ForcesKickDriftGroups, a group of lanes per body; the sphere
+  /// motion in two buffers swapped every step) or apart; the same bits. By default one of the timed sets on a GPU, apart on CPU threads;
   /// BIODEM_GPU_WALK_KICK=1|0|auto or this switch. walk_kick_steps() counts its steps.
   virtual void set_walk_kick(bool on) = 0;
   virtual std::uint64_t walk_kick_steps() const = 0;

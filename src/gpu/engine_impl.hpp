@@ -340,6 +340,8 @@ class Engine final : public DeviceEngine {
            : walk_kick() && !single_spheres_
                ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the clumps' walk with the body update loads both spheres per entry)"
                : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+    if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
+      r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
     if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
       r += "; BIODEM_GPU_BODY_LANES unused (the order-free family has its own body kernel)";
     else if (body_lanes_log2_ && !single_spheres_ && walk_kick())
@@ -369,18 +371,22 @@ class Engine final : public DeviceEngine {
              " choice(s) in the run so far)";
     const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
     const bool groups = walk_kick() && !single_spheres_;  // (the set names its groups of lanes)
+    // (sets 4, and 1 in single-sphere scenes, update the bodies in the walk unless switched off)
+    const bool kick_sets = walk_kick_fits() && walk_kick_mode_ != WalkKick::off;
     return set + (use_entry_kernels() || groups ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
            " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
            " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
-           System::walk_lanes() + (single_spheres_ ? " with the body update" : "") + ": " + us(tuning_.median[1]) +
+           System::walk_lanes() + (single_spheres_ && kick_sets ? " with the body update" : "") + ": " + us(tuning_.median[1]) +
            ", one thread per sphere: " + us(tuning_.median[2]) +
            "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk " +
-           (single_spheres_ ? std::string("in one thread")
-                            : "in groups of " + std::to_string(1u << std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u)) +
-                                  " lanes per body") +
-           " with the body update " + us(tuning_.median[4]) +
-           (walk_kick_fits() ? " us/step (" : " us/step (as one thread: a body of more than 32 spheres; ") +
+           (!kick_sets ? std::string("in one thread, again")
+            : single_spheres_ ? std::string("in one thread with the body update")
+                              : "in groups of " + std::to_string(1u << walk_kick_lanes_log2_) +
+                                    " lanes per body with the body update") +
+           " " + us(tuning_.median[4]) +
+           (walk_kick_fits() ? (kick_sets ? " us/step (" : " us/step (BIODEM_GPU_WALK_KICK=0; ")
+                             : " us/step (as one thread: a body of more than 32 spheres; ") +
            std::to_string(tuning_.choices) + " choice(s) in the run: after each upload, at each phase start and every " +
            std::to_string(retime_every_) + " steps)";
   }
