@@ -309,23 +309,18 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; row walk with 1, 2, 16, 32 lanes x blocks of 32, 512 byte-identical to 4 lanes, 64"
-  # (the clumps' body kernel by 2 and 32 lanes per body, in blocks of 32 and 512: the groups'
-  # warp syncs at other sizes and places in a warp)
-  for bl in 2 32; do
+  # (the clumps' body kernel by 2 and 32 lanes per body, and the walk with the body update by
+  # groups of 4, in blocks of 32 and 512: the groups' warp syncs at other sizes and places in a
+  # warp and a block)
+  for group in BIODEM_GPU_BODY_LANES=2 BIODEM_GPU_BODY_LANES=32 BIODEM_GPU_WALK_KICK=1; do
+    lab=$(echo "${group#BIODEM_GPU_}" | tr 'A-Z=' 'a-z_')  # (body_lanes_2, ..., walk_kick_1)
     for block in 32 512; do
-      why=$(variant_same "$OUT/needles_rows" "needles_bodylanes${bl}_block$block" BIODEM_GPU_FORCES=rows \
-            BIODEM_GPU_BODY_LANES=$bl BIODEM_GPU_BLOCK=$block) ||
-        { lanes_ok=0; lanes_detail="$lanes_detail; body kernel by $bl lanes, blocks of $block: $why"; }
+      why=$(variant_same "$OUT/needles_rows" "needles_${lab}_block$block" BIODEM_GPU_FORCES=rows \
+            "$group" BIODEM_GPU_BLOCK=$block) ||
+        { lanes_ok=0; lanes_detail="$lanes_detail; $group, blocks of $block: $why"; }
     done
   done
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' body kernel by 2 and 32 lanes x blocks of 32, 512 byte-identical"
-  # (the walk with the body update in blocks of 32 and 512: its groups at other places in a block)
-  for block in 32 512; do
-    why=$(variant_same "$OUT/needles_rows" "needles_walk_kick_block$block" BIODEM_GPU_FORCES=rows \
-          BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_BLOCK=$block) ||
-      { lanes_ok=0; lanes_detail="$lanes_detail; walk with the body update, blocks of $block: $why"; }
-  done
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' walk with the body update in blocks of 32, 512 byte-identical"
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' body kernel by 2 and 32 lanes and the walk with the body update by groups of 4, x blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the

@@ -79,6 +79,20 @@ struct ThreadLanes {
   }
 };
 
+/// f(item, lane) for items 0 .. items - 1 by one group of `lanes` lanes, each lane a thread (as a
+/// CUDA kernel runs one group per item).
+template <class F>
+void in_thread_lanes(std::uint32_t items, std::uint32_t lanes, const F& f) {
+  GroupState state(lanes);
+  std::vector<std::thread> team;
+  for (std::uint32_t l = 0; l < lanes; ++l)
+    team.emplace_back([&, l] {
+      const ThreadLanes me{&state, l, lanes};
+      for (std::uint32_t i = 0; i < items; ++i) f(i, me);
+    });
+  for (auto& th : team) th.join();
+}
+
 /// Row arrays held in vectors, filled with a marker so that an entry left unwritten shows.
 struct HostRows {
   std::vector<std::uint32_t> j, sid, length, mirror;
@@ -398,14 +412,7 @@ namespace {
 /// thread (as for_each_walk runs one group per item on CUDA).
 template <class W>
 void walk_rows_in_thread_lanes(const W& w, std::uint32_t items, std::uint32_t lanes) {
-  GroupState state(lanes);
-  std::vector<std::thread> team;
-  for (std::uint32_t l = 0; l < lanes; ++l)
-    team.emplace_back([&, l] {
-      const ThreadLanes me{&state, l, lanes};
-      for (std::uint32_t i = 0; i < items; ++i) walk_row_lanes(w, i, me);
-    });
-  for (auto& th : team) th.join();
+  in_thread_lanes(items, lanes, [&](std::uint32_t i, const ThreadLanes& me) { walk_row_lanes(w, i, me); });
 }
 
 }  // namespace
@@ -874,16 +881,8 @@ TEST(BodyLanes, GroupsOfThreadLanesGiveTheBitsOfReduceKickDrift) {
     for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 32u}) {
       MadeUpClumps grouped(kBodies, records);
       const ReduceKickDriftLanes rl{grouped.kernel()};
-      for (int step = 0; step < 3; ++step) {
-        GroupState state(lanes);
-        std::vector<std::thread> team;
-        for (std::uint32_t l = 0; l < lanes; ++l)
-          team.emplace_back([&, l] {
-            const ThreadLanes me{&state, l, lanes};
-            for (std::uint32_t k = 0; k < kBodies; ++k) rl.run(k, me);
-          });
-        for (auto& th : team) th.join();
-      }
+      for (int step = 0; step < 3; ++step)
+        in_thread_lanes(kBodies, lanes, [&](std::uint32_t k, const ThreadLanes& me) { rl.run(k, me); });
       EXPECT_EQ(grouped.first_difference(one), "") << lanes << " lanes" << (records ? ", records" : "");
       std::printf("[measured] clumps' body kernel by %u lanes vs one thread%s: %u bodies (%zu turning), %zu spheres, "
                   "3 steps: %s\n",
@@ -950,14 +949,7 @@ TEST(BodyLanes, WalkAndBodyUpdateByGroupsGiveTheBitsOfTheTwoKernels) {
         rk.s.omega = to.sw.data();
         rk.s.record = records ? to.rec.data() : nullptr;
         const WalkKickGroups<SpringWalk> g{SpringWalk{walk_s, n}, ReduceKickDriftLanes{rk}};
-        GroupState state(lanes);
-        std::vector<std::thread> team;
-        for (std::uint32_t l = 0; l < lanes; ++l)
-          team.emplace_back([&, l] {
-            const ThreadLanes me{&state, l, lanes};
-            for (std::uint32_t k = 0; k < kBodies; ++k) g.run(k, me);
-          });
-        for (auto& th : team) th.join();
+        in_thread_lanes(kBodies, lanes, [&](std::uint32_t k, const ThreadLanes& me) { g.run(k, me); });
       }
       // (after three steps the motion is in the second buffer)
       fused.sx = other.sx;
