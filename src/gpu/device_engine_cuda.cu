@@ -522,15 +522,16 @@ inline bool& pdl_launch() {
 /// Launches kernel<<<blocks, block, 0, engine_stream()>>>(args...), with programmatic dependent
 /// launch when pdl_launch().
 template <class... Params, class... Args>
-inline void launch_kernel(void (*kernel)(Params...), std::uint32_t blocks, std::uint32_t block, Args&&... args) {
+inline void launch_kernel_shared(void (*kernel)(Params...), std::uint32_t blocks, std::uint32_t block,
+                                 std::uint32_t shared_bytes, Args&&... args) {
   if (!pdl_launch()) {
-    kernel<<<blocks, block, 0, engine_stream()>>>(std::forward<Args>(args)...);
+    kernel<<<blocks, block, shared_bytes, engine_stream()>>>(std::forward<Args>(args)...);
     return;
   }
   cudaLaunchConfig_t cfg{};
   cfg.gridDim = dim3(blocks);
   cfg.blockDim = dim3(block);
-  cfg.dynamicSmemBytes = 0;
+  cfg.dynamicSmemBytes = shared_bytes;
   cfg.stream = engine_stream();
   cudaLaunchAttribute attr[1];
   attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
@@ -538,6 +539,11 @@ inline void launch_kernel(void (*kernel)(Params...), std::uint32_t blocks, std::
   cfg.attrs = attr;
   cfg.numAttrs = 1;
   (void)cudaLaunchKernelEx(&cfg, kernel, std::forward<Args>(args)...);  // (errors: check_cuda after)
+}
+/// launch_kernel_shared without dynamic shared memory.
+template <class... Params, class... Args>
+inline void launch_kernel(void (*kernel)(Params...), std::uint32_t blocks, std::uint32_t block, Args&&... args) {
+  launch_kernel_shared(kernel, blocks, block, 0u, std::forward<Args>(args)...);
 }
 
 /// Lanes per row walk (System::launch_walks): 4 unless BIODEM_GPU_ROW_LANES says 1 (one
@@ -551,6 +557,11 @@ inline std::uint32_t& row_lanes_log2() {
 /// Row walks with a group of lanes per item (defined after the kernels, below).
 template <class W>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint32_t n, W w, std::uint32_t lanes_log2);
+
+/// Row walks with the touching contacts shared by a warp's lanes (walk_packed; defined after the
+/// kernels, below): launched when W is such a walker (kernels.hpp, WalksPacked); false if not.
+template <class W>
+bool launch_packed_walks(std::uint32_t n, const W& w);
 
 /// Items with a group of lanes each (defined after the kernels, below): f.run(item, group).
 template <class F>
@@ -601,9 +612,12 @@ struct System {
   }
   /// Row walks (kernels.hpp, walk_row) over n items: a group of row lanes per item
   /// (for_each_walk), or one thread per item when BIODEM_GPU_ROW_LANES=1; no host wait.
+  /// packed: where one thread would walk each row, the walks of a warp share their touching
+  /// contacts (walk_packed, for_each_packed_walk; BIODEM_GPU_WALK_PACK=1).
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w, bool single) {
+  static void launch_walks(std::uint32_t n, const W& w, bool single, bool packed = false) {
     const std::uint32_t log2 = single ? 0u : row_lanes_log2();
+    if (log2 == 0 && packed && launch_packed_walks(n, w)) return;
     if (log2 == 0) {
       launch(n, w);
       return;
@@ -754,6 +768,42 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
   const std::uint32_t item = (blockIdx.x * blockDim.x + threadIdx.x) >> lanes_log2;
   if (item >= n) return;
   walk_row_lanes(w, item, WarpGroup::of_thread(lanes_log2));
+}
+
+template <class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_packed_walk(std::uint32_t n, W w);
+
+template <class W>
+bool launch_packed_walks(std::uint32_t n, const W& w) {
+  if constexpr (!WalksPacked<W>::value) {
+    (void)n;
+    (void)w;
+    return false;
+  } else {
+    const std::uint32_t block = launch_block();  // (at least 32: whole warps)
+    const std::uint64_t blocks = (static_cast<std::uint64_t>(n) + block - 1) / block;
+    if (blocks * block > 0xffffffffull)
+      throw Error("GPU engine: a kernel over " + std::to_string(n) + " items exceeds 2^32 threads (32-bit indices)");
+    const auto bytes = static_cast<std::uint32_t>((block / 32) * sizeof(PackedWalkScratch<ContactArgs::EntryHead>));
+    launch_kernel_shared(for_each_packed_walk<W>, static_cast<std::uint32_t>(blocks), block, bytes, n, w);
+    check_cuda("a kernel launch");
+    return true;
+  }
+}
+
+/// Row walks of whole warps with their touching contacts shared (kernels.hpp, walk_packed): a
+/// warp's lanes walk items 32 w .. 32 w + 31, and lanes past n stay in the warp to take their
+/// share (whole warps past n leave). Each warp's scratch is its part of the block's dynamic
+/// shared memory (System::launch_walks).
+template <class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_packed_walk(std::uint32_t n, W w) {
+  after_previous_kernel();
+  extern __shared__ __align__(16) unsigned char packed_walk_shared[];
+  const std::uint32_t item = blockIdx.x * blockDim.x + threadIdx.x;
+  if ((item & ~31u) >= n) return;
+  using Scratch = PackedWalkScratch<ContactArgs::EntryHead>;
+  Scratch& sc = reinterpret_cast<Scratch*>(packed_walk_shared)[threadIdx.x >> 5];
+  walk_packed(w, item, item < n, WarpGroup::of_thread(5), sc);
 }
 
 /// Items with a group of 2^lanes_log2 lanes each (System::launch_groups): a group never

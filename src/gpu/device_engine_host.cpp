@@ -26,6 +26,11 @@ namespace biodem::gpu::host_threads {
 // on a loaded machine a waiting team stalls for milliseconds). Sorts, scans and reductions run
 // on the calling thread: O(n) once per list check, and their summation order then does not
 // depend on the thread count.
+/// The walks of walk_packed, each with a group of one lane (defined after the kernels, below);
+/// false when W is not such a walker (kernels.hpp, WalksPacked).
+template <class W>
+bool run_packed_walks(std::uint32_t n, const W& w);
+
 struct System {
   template <class T>
   using vector = thrust::omp::vector<T>;
@@ -105,8 +110,12 @@ struct System {
   }
   /// Row walks (kernels.hpp, walk_row): here one thread walks each item's row, whether or not
   /// `single` (one thread per item) is asked.
+  /// packed (BIODEM_GPU_WALK_PACK=1): walk_packed with a group of one lane per item, its
+  /// scratch on the thread's stack (the same bits; what the lanes of a warp do together is
+  /// covered by tests/gpu/test_group_lanes.cpp).
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w, bool /*single*/) {
+  static void launch_walks(std::uint32_t n, const W& w, bool /*single*/, bool packed = false) {
+    if (packed && run_packed_walks(n, w)) return;
     launch(n, w);
   }
   static std::string walk_lanes() { return "row lanes (on CPU threads, one thread per sphere too)"; }
@@ -160,6 +169,21 @@ template <class F>
 void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
   const SequentialSum<F> sum{f, n, out, halt};
   sum(0);
+}
+
+template <class W>
+bool run_packed_walks(std::uint32_t n, const W& w) {
+  if constexpr (!WalksPacked<W>::value) {
+    (void)n;
+    (void)w;
+    return false;
+  } else {
+    System::launch(n, [&w](std::uint32_t i) {
+      PackedWalkScratch<ContactArgs::EntryHead> sc;
+      walk_packed(w, i, true, OneLane{}, sc);
+    });
+    return true;
+  }
 }
 }  // namespace biodem::gpu::host_threads
 

@@ -186,6 +186,14 @@ class Engine final : public DeviceEngine {
         if (*flag) throw Error(std::string(name) + " = '1': this biodem was built without it (-DBIODEM_GPU_NO_RECORD_PATHS)");
 #endif
       }
+    // BIODEM_GPU_WALK_PACK=1: where one thread walks each row (Forces, ForcesKickDrift), the
+    // walks of a warp's spheres share their touching contacts across its lanes (walk_packed).
+    // The same bits either way; off by default until timed on a GPU (docs/gpu.md, section 2).
+    if (const char* v = std::getenv("BIODEM_GPU_WALK_PACK"); v && *v) {
+      if (std::string(v) != "0" && std::string(v) != "1")
+        throw Error(std::string("BIODEM_GPU_WALK_PACK = '") + v + "': expected 0 or 1");
+      walk_pack_ = std::string(v) == "1";
+    }
     // BIODEM_GPU_BODY_LANES=1|2|4|8|16|32|auto: in scenes of clumps, the fused body kernel by one
     // thread per body (ReduceKickDrift, the default until timed on a GPU) or by a group of that
     // many lanes (ReduceKickDriftLanes; auto: the most spheres of a body, rounded up to a power
@@ -340,6 +348,12 @@ class Engine final : public DeviceEngine {
            : walk_kick() && !single_spheres_
                ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the clumps' walk with the body update loads both spheres per entry)"
                : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
+    if (walk_pack_)
+      r += use_entry_kernels() || fixed_sums_ ? "; BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"
+           : walk_kick() && !single_spheres_
+               ? "; BIODEM_GPU_WALK_PACK=1 unused (the clumps' walk with the body update has its own groups of lanes)"
+               : "; where one thread walks a row, the walks of a warp share their touching contacts across its lanes "
+                 "(BIODEM_GPU_WALK_PACK=1; on CPU threads one lane)";
     if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
       r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
     if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
@@ -528,8 +542,10 @@ class Engine final : public DeviceEngine {
   /// Row walks (Forces) over n items (System::launch_walks).
   template <class W>
   void launch_walks(std::uint32_t n, const W& w) {
-    if (n) System::launch_walks(n, w, walk_single());
+    if (n) System::launch_walks(n, w, walk_single(), walk_pack_);
   }
+  /// BIODEM_GPU_WALK_PACK=1 (System::launch_walks: only where one thread walks each row).
+  bool walk_pack_ = false;
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
   /// before it queued on the device one step before their end (no wait).

@@ -108,6 +108,27 @@ BIODEM_HD inline SphereState load_sphere(const SphereArrays& s, std::uint32_t i)
   return s.record ? load_sphere_record(s.record, i) : load_sphere_arrays(s, i);
 #endif
 }
+/// Sphere i's centre and radius only (a contact's cut-off test: walk_packed's test round): from
+/// its record when there are records (on a GPU two 16-byte loads), else from the arrays. The
+/// values load_sphere gives.
+BIODEM_HD inline void load_centre(const SphereArrays& s, std::uint32_t i, Vec3& x, double& r) {
+#ifndef BIODEM_GPU_NO_RECORD_PATHS
+  if (s.record) {
+#ifdef __CUDA_ARCH__
+    const double2* p = reinterpret_cast<const double2*>(s.record + i);
+    const double2 a = p[0], b = p[1];
+    x = Vec3{a.x, a.y, b.x};
+    r = b.y;
+#else
+    x = s.record[i].position;
+    r = s.record[i].radius;
+#endif
+    return;
+  }
+#endif
+  x = s.position[i];
+  r = s.radius[i];
+}
 /// Sphere i's motion stored: the arrays, and its record when there are records.
 BIODEM_HD inline void set_motion(const SphereArrays& s, std::uint32_t i, const Vec3& x, const Vec3& v, const Vec3& w) {
   s.position[i] = x;
@@ -1056,15 +1077,7 @@ struct ContactArgs {
     // (Listed: loaded whatever the flag, in the round of the spheres' loads; a new contact below
     // takes the same value, nothing having written it since.)
     if (Listed || was_touching) h = rows.history[k];
-    Vec3 d = pi - pj;
-    if (periodic) {
-      const std::int32_t c = rows.image[k];
-      const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
-      const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
-      const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
-      d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
-                static_cast<double>(sz) * period.z};
-    }
+    const Vec3 d = pair_offset(k, pi, pj, a_low);
     const double dist2 = norm2(d), rsum = ri + rj;
     if (dist2 >= rsum * rsum) {
       if (was_touching) {
@@ -1084,6 +1097,61 @@ struct ContactArgs {
     force_low = out.force_i;
     torque_a = a_low ? out.torque_i : out.torque_j;
     if (torque_b) *torque_b = a_low ? out.torque_j : out.torque_i;
+    return true;
+  }
+
+  /// The centre-to-centre vector of entry k's pair from the lower-id sphere's centre pi to the
+  /// other's pj, with the entry's periodic image shift (a_low: the row's sphere is the lower-id
+  /// one): pair_contact's and pair_touches' (the same operations, so the same cut-off test).
+  BIODEM_HD Vec3 pair_offset(std::uint32_t k, const Vec3& pi, const Vec3& pj, bool a_low) const {
+    Vec3 d = pi - pj;
+    if (periodic) {
+      const std::int32_t c = rows.image[k];
+      const int sx = a_low ? image_component(c, 0) : -image_component(c, 0);
+      const int sy = a_low ? image_component(c, 1) : -image_component(c, 1);
+      const int sz = a_low ? image_component(c, 2) : -image_component(c, 2);
+      d -= Vec3{static_cast<double>(sx) * period.x, static_cast<double>(sy) * period.y,
+                static_cast<double>(sz) * period.z};
+    }
+    return d;
+  }
+  /// pair_entry_from's cut-off test alone, for entry k (head e) of sphere a's row: the two
+  /// spheres' centres and radii only; true when they touch (nothing written: pair_entry_from
+  /// evaluates the contact), false after what pair_entry_from does for a pair apart (the
+  /// touching flag and history of a contact that was touching reset). The same test on the same
+  /// values as pair_contact, so both say the same.
+  BIODEM_HD bool pair_touches(const EntryHead& e, std::uint32_t a, std::uint32_t sid_a, std::uint32_t k) const {
+    const bool a_low = sid_a < e.sid_b;
+    Vec3 pi, pj;
+    double ri, rj;
+    load_centre(s, a_low ? a : e.b, pi, ri);
+    load_centre(s, a_low ? e.b : a, pj, rj);
+    const Vec3 d = pair_offset(k, pi, pj, a_low);
+    const double dist2 = norm2(d), rsum = ri + rj;
+    if (dist2 >= rsum * rsum) {
+      if (e.was_touching) {
+        rows.touching[k] = 0;
+        rows.history[k] = contact::ContactHistory{};
+      }
+      return false;
+    }
+    return true;
+  }
+  /// wall_contact's test alone for sphere a and wall w (as pair_touches: true when touching,
+  /// nothing written; false after the reset of a contact that was touching).
+  BIODEM_HD bool wall_touches(std::uint32_t a, std::uint32_t w) const {
+    const std::uint32_t slot = w * n + a;
+    const bool was_touching = wall_touching[slot] != 0;
+    Vec3 xa;
+    double ra;
+    load_centre(s, a, xa, ra);
+    if (!walls::wall_hit(walls[w].geometry, xa, ra).touching) {
+      if (was_touching) {
+        wall_touching[slot] = 0;
+        wall_history[slot] = contact::ContactHistory{};
+      }
+      return false;
+    }
     return true;
   }
 
@@ -1482,6 +1550,130 @@ BIODEM_HD inline void walk_row_lanes(const W& w, std::uint32_t item, const Group
   }
 }
 
+/// Index of the lowest set bit of v (v != 0).
+BIODEM_HD inline std::uint32_t lowest_bit(std::uint32_t v) {
+#ifdef __CUDA_ARCH__
+  return static_cast<std::uint32_t>(__ffs(static_cast<int>(v)) - 1);
+#else
+  std::uint32_t i = 0;
+  while (!(v & 1u)) {
+    v >>= 1;
+    ++i;
+  }
+  return i;
+#endif
+}
+
+/// The scratch of one group of walk_packed (on a GPU a warp's part of the block's shared
+/// memory, on CPU threads the caller's stack): the queue of touching contacts waiting for a
+/// round of evaluation (at most twice the lanes: fewer than `lanes` wait before a step of the
+/// walk, which adds at most `lanes`), and one round's results.
+template <class Head>
+struct PackedWalkScratch {
+  static constexpr std::uint32_t kLanes = 32, kQueue = 2 * kLanes;
+  RowContact result[kLanes];
+  WalkStart owner[kQueue];  // the walk the contact is of
+  std::uint32_t v[kQueue];  // its index in that walk
+  Head head[kQueue];        // a pair entry's head (v < owner.len)
+};
+
+/// Row walks of a warp's spheres, one per lane, with the touching contacts shared by the lanes
+/// (BIODEM_GPU_WALK_PACK=1; on CUDA a group of the 32 lanes of a warp, for_each_packed_walk; on
+/// CPU threads one lane). In the walk by one thread per sphere a warp runs a touching contact's
+/// long evaluation at every step of the walk where any of its 32 spheres touches (the raw drum:
+/// 13.8 of 32 lanes active on average, ncu, lease 9). Here each lane tests its walk's entries
+/// for contact in step (the cut-off test alone: W::walk_touches_from for pair entries, with
+/// their heads loaded one entry ahead, and W::walk_touches for walls, which also do what the
+/// walk does for a contact apart), the touching ones queue in the group's scratch in (step,
+/// lane) order, and each time `lanes` of them wait, every lane evaluates one of them
+/// (W::walk_entry_from, W::walk_entry: the walk's own evaluation, loads and test included). The
+/// sphere that owns a contact then adds the round's results that are its own in queue order,
+/// which is its walk order: the same contacts added in the same order with the same operations
+/// as the walk by one thread, so the same bits. Every lane of the group calls it (`valid` false
+/// for a lane past the items); a lane's walk writes only its own entries, wall slots and
+/// sphere, so which lane evaluates a contact changes nothing.
+template <class W, class Group, class Head>
+BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, const Group& grp,
+                                  PackedWalkScratch<Head>& sc) {
+  const std::uint32_t lanes = grp.size(), lane = grp.lane(), below = (1u << lane) - 1u;
+  Head next{};
+  if (valid && 0 < w.head_limit()) next = w.walk_head(item, 0);  // (entry 0 is in the arrays)
+  WalkStart st{};
+  const bool live = valid && w.walk_begin(item, st);
+  OrderedWalkSums sums;
+  std::uint32_t queued = 0, mine = 0, mine_next = 0;  // (mine: my contacts' slots in this round)
+  // One round: the first `count` queued contacts evaluated, one per lane, and added by their
+  // owners; the rest moved to the front.
+  auto round = [&](std::uint32_t count) {
+    grp.sync();  // (the queue's writes before its reads)
+    if (lane < count) {
+      const WalkStart& o = sc.owner[lane];
+      const std::uint32_t v = sc.v[lane];
+      sc.result[lane] = v < o.len ? w.walk_entry_from(o, v, sc.head[lane]) : w.walk_entry(o, v);
+    }
+    grp.sync();  // (the results before their owners read them)
+    for (std::uint32_t m = mine; m; m &= m - 1u) sums.add(sc.result[lowest_bit(m)]);
+    const std::uint32_t rest = queued - count;  // (< lanes: no lane reads a slot another writes)
+    WalkStart o{};
+    std::uint32_t v = 0;
+    Head h{};
+    if (lane < rest) {
+      o = sc.owner[count + lane];
+      v = sc.v[count + lane];
+      h = sc.head[count + lane];
+    }
+    grp.sync();  // (every read of this round before the moves and the next round's writes)
+    if (lane < rest) {
+      sc.owner[lane] = o;
+      sc.v[lane] = v;
+      sc.head[lane] = h;
+    }
+    mine = mine_next;
+    mine_next = 0;
+    queued = rest;
+  };
+  for (std::uint32_t v = 0; grp.ballot(live && v < st.total) != 0; ++v) {
+    bool touching = false;
+    Head head{};
+    if (live && v < st.len) {
+      head = next;
+      if (v + 1 < st.len) next = w.walk_head(item, v + 1);
+      touching = w.walk_touches_from(st, v, head);
+    } else if (live && v < st.total) {
+      touching = w.walk_touches(st, v);  // a wall
+    }
+    const std::uint32_t voted = grp.ballot(touching);
+    if (touching) {
+      const std::uint32_t slot = queued + count_bits(voted & below);
+      sc.owner[slot] = st;
+      sc.v[slot] = v;
+      sc.head[slot] = head;
+      if (slot < lanes) mine |= 1u << slot;
+      else mine_next |= 1u << (slot - lanes);
+    }
+    queued += count_bits(voted);
+    if (queued >= lanes) round(lanes);
+  }
+  if (queued) round(queued);
+  if (live) {
+    Vec3 f, t;
+    std::uint32_t count = 0;
+    sums.finish(f, t, count);
+    w.walk_end(item, st, f, t, count);
+  }
+}
+
+/// A walker walk_packed can run: it has the cut-off tests alone (walk_touches_from,
+/// walk_touches) and adds its contacts as doubles in walk order (not the order-free family).
+template <class W, class = void>
+struct WalksPacked {
+  static constexpr bool value = false;
+};
+template <class W>
+struct WalksPacked<W, decltype(void(&W::walk_touches_from))> {
+  static constexpr bool value = !WalksFixedSums<W>::value;
+};
+
 /// The contact forces on sphere a (one item per sphere): its pair contacts in the order of the
 /// row (stable ids), then its walls in wall order, summed into its force, torque and contact
 /// count (BIODEM_GPU_FORCES=rows). Each pair is evaluated from the side of its lower stable id,
@@ -1518,6 +1710,11 @@ struct Forces : ContactArgs {
   static constexpr bool kHeadsAhead = true;
   BIODEM_HD std::uint32_t head_limit() const { return rows.cap; }
   BIODEM_HD EntryHead walk_head(std::uint32_t a, std::uint32_t v) const { return entry_head(v * n + a); }
+  /// walk_packed's tests: pair entry v (< st.len) from its head, and wall v - st.len.
+  BIODEM_HD bool walk_touches_from(const WalkStart& st, std::uint32_t v, const EntryHead& e) const {
+    return this->pair_touches(e, st.a, st.sid_a, v * n + st.a);
+  }
+  BIODEM_HD bool walk_touches(const WalkStart& st, std::uint32_t v) const { return wall_touches(st.a, v - st.len); }
   /// Pair entry v (< st.len) of the walk from its head: walk_entry(st, v)'s contact.
   BIODEM_HD RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const EntryHead& e) const {
     RowContact r;
