@@ -484,6 +484,108 @@ TEST(RowWalkLanes, LanesLoadingTheirHeadsAheadGiveTheSumsOfOneThread) {
 }
 
 namespace {
+/// MadeUpWalkAhead as a walker for walk_packed (as Forces): the cut-off tests alone
+/// (walk_touches_from with the entry's head, walk_touches for the walls) say whether the made-up
+/// contact touches (kind != 0), and every test and evaluation is counted per entry. A wrong head,
+/// or an evaluation of a contact apart, gives a contact that changes the sums (and is counted).
+struct MadeUpWalkPacked : MadeUpWalkAhead {
+  static constexpr std::uint32_t kMostEntries = 41;
+  std::atomic<std::uint32_t>* tested;     // [item * kMostEntries + v]
+  std::atomic<std::uint32_t>* evaluated;  // likewise
+  bool touches(const WalkStart& st, std::uint32_t v) const { return MadeUpWalk::walk_entry(st, v).kind != 0; }
+  bool walk_touches_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    ++tested[st.a * kMostEntries + v];
+    if (h.item != st.a || h.v != v || v >= st.len) ++*wrong;
+    return touches(st, v);
+  }
+  bool walk_touches(const WalkStart& st, std::uint32_t v) const {
+    ++tested[st.a * kMostEntries + v];
+    if (v < st.len || v >= st.total) ++*wrong;  // (walls only)
+    return touches(st, v);
+  }
+  RowContact checked(const WalkStart& st, std::uint32_t v, RowContact r) const {
+    ++evaluated[st.a * kMostEntries + v];
+    if (r.kind == 0) {  // (a contact apart: walk_packed must not evaluate it)
+      ++*wrong;
+      r.kind = 1;
+      r.force = Vec3{1e30, 1e30, 1e30};
+    }
+    return r;
+  }
+  RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    return checked(st, v, MadeUpWalkAhead::walk_entry_from(st, v, h));
+  }
+  RowContact walk_entry(const WalkStart& st, std::uint32_t v) const {
+    if (v < st.len) ++*wrong;  // (pair entries come from their heads)
+    return checked(st, v, MadeUpWalk::walk_entry(st, v));
+  }
+};
+}  // namespace
+
+// The row walks of a warp's spheres with their touching contacts shared by its lanes
+// (walk_packed, what for_each_packed_walk runs on CUDA with BIODEM_GPU_WALK_PACK=1) by groups of
+// 1, 2, 4, 8 and 32 thread lanes, each lane a walk of 0 to 40 contacts (two thirds pair
+// entries, a third walls; about three quarters touching) whose values span six decades: the
+// sums of one thread walking each row (walk_row), bit for bit; every contact tested once, every
+// touching one evaluated once and no other; each walk ended once; no wrong head. (It fails when
+// the owners add a round's results in another order, or without the sync before the results are
+// read: checked.)
+TEST(RowWalkLanes, WarpsSharingTheirTouchingContactsGiveTheSumsOfOneThread) {
+  constexpr std::uint32_t kItems = 300;
+  constexpr std::uint32_t kN = MadeUpWalkPacked::kMostEntries;
+  std::vector<Vec3> f1(kItems, Vec3{-1, -1, -1}), t1(kItems, Vec3{-1, -1, -1});
+  std::vector<std::uint32_t> c1(kItems, 12345), e1(kItems, 0);
+  const MadeUpWalk one{f1.data(), t1.data(), c1.data(), e1.data()};
+  for (std::uint32_t i = 0; i < kItems; ++i) walk_row(one, i);
+  std::size_t touching = 0, apart = 0;
+  for (std::uint32_t i = 0; i < kItems; ++i) {
+    WalkStart st;
+    if (one.walk_begin(i, st))
+      for (std::uint32_t v = 0; v < st.total; ++v) (one.walk_entry(st, v).kind ? touching : apart) += 1;
+  }
+  for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 32u}) {
+    std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
+    std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
+    std::atomic<std::uint32_t> wrong{0}, from_heads{0};
+    std::vector<std::atomic<std::uint32_t>> tested(kItems * kN), evaluated(kItems * kN);
+    MadeUpWalkPacked packed;
+    static_cast<MadeUpWalk&>(packed) = MadeUpWalk{f.data(), t.data(), c.data(), e.data()};
+    packed.wrong = &wrong;
+    packed.from_heads = &from_heads;
+    packed.tested = tested.data();
+    packed.evaluated = evaluated.data();
+    static_assert(WalksPacked<MadeUpWalkPacked>::value && !WalksPacked<MadeUpWalkAhead>::value);
+    PackedWalkScratch<MadeUpWalkAhead::Head> scratch;  // (one group at a time: one scratch)
+    const std::uint32_t groups = (kItems + lanes - 1) / lanes;
+    in_thread_lanes(groups, lanes, [&](std::uint32_t g, const ThreadLanes& me) {
+      const std::uint32_t item = g * lanes + me.lane();
+      walk_packed(packed, item, item < kItems, me, scratch);
+    });
+    std::size_t differ = 0, tests_off = 0, evaluations_off = 0;
+    for (std::uint32_t i = 0; i < kItems; ++i) {
+      differ += !(std::memcmp(&f[i], &f1[i], sizeof(Vec3)) == 0 && std::memcmp(&t[i], &t1[i], sizeof(Vec3)) == 0 &&
+                  c[i] == c1[i] && e[i] == e1[i]);
+      WalkStart st;
+      const bool walks = one.walk_begin(i, st);
+      for (std::uint32_t v = 0; v < kN; ++v) {
+        const bool in_walk = walks && v < st.total;
+        tests_off += tested[i * kN + v] != (in_walk ? 1u : 0u);
+        evaluations_off += evaluated[i * kN + v] != (in_walk && one.walk_entry(st, v).kind ? 1u : 0u);
+      }
+    }
+    EXPECT_EQ(differ, 0u) << lanes << " lanes";
+    EXPECT_EQ(wrong.load(), 0u) << lanes << " lanes";
+    EXPECT_EQ(tests_off, 0u) << lanes << " lanes";
+    EXPECT_EQ(evaluations_off, 0u) << lanes << " lanes";
+    std::printf("[measured] row walks of %u lanes sharing their touching contacts vs one thread per row: %u walks, "
+                "%zu contacts touching, %zu apart; %zu walks differ, %u wrong, %zu tests and %zu evaluations off\n",
+                lanes, kItems, touching, apart, differ, wrong.load(), tests_off, evaluations_off);
+  }
+  EXPECT_GT(touching, 2000u);
+  EXPECT_GT(apart, 500u);
+}
+
+namespace {
 /// MadeUpWalkAhead as a walker of the order-free family (kFixedSums, as ForcesFixed): its
 /// contacts rounded to a grid that holds the made-up values and added as integers.
 struct MadeUpWalkFixed : MadeUpWalkAhead {
