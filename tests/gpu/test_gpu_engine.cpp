@@ -1839,11 +1839,89 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
   }
 }
 
+// The row walks with the touching contacts shared by a warp's lanes (BIODEM_GPU_WALK_PACK=1,
+// walk_packed: on CPU threads a group of one lane, whose cut-off tests run apart from the
+// evaluations), against the walk by one thread: the packing of needles and beads in its
+// cylinder, the compressed bed of beads with the walk and the body update in one kernel
+// (ForcesKickDrift), and a box periodic along x, y and z (image shifts in the tests), stepped in
+// runs across list checks, rebuilds with sorts of the bodies, a criterion phase and an upload:
+// bit-identical after every run, serially and on two threads, with the spheres read from the
+// arrays and from their records. The clumps' walk with the body update (its own groups of lanes)
+// and the entry kernels are not packed, and run.log says so. (It fails when the pair test says
+// "apart" for every pair, or the wall test for every wall: checked.)
+TEST(GpuEngine, WarpsSharingTheirTouchingContactsGiveTheBitsOfTheWalk) {
+  struct Set {
+    const char* name;
+    int scene;  // 0: packing, 1: compressed bed, 2: periodic box
+    bool walk_kick, records, parallel;
+  };
+  const Set sets[] = {
+      {"needles and beads, row walk", 0, false, false, false},
+      {"needles and beads, row walk, two threads", 0, false, false, true},
+      {"needles and beads, row walk, records", 0, false, true, false},
+      {"bed of beads, row walk with the body update, two threads", 1, true, false, true},
+      {"bed of beads, row walk, records", 1, false, true, false},
+      {"periodic box, row walk", 2, false, false, true},
+  };
+  for (const Set& set : sets) {
+    SCOPED_TRACE(set.name);
+    const ScopedThreads scoped(set.parallel ? 2 : 1);
+    const std::size_t old = kParallelThreshold;
+    if (set.parallel) set_parallel_threshold(0);
+    auto make = [&set] {
+      return set.scene == 0 ? packing(0.5e-3) : set.scene == 1 ? compressed_bed() : periodic_box(0.3e-3);
+    };
+    auto a = make(), b = make();
+    ::setenv("BIODEM_GPU_WALK_PACK", "1", 1);
+    ::setenv("BIODEM_GPU_RECORDS", set.records ? "1" : "0", 1);
+    auto ea = gpu_engine(*a);
+    ::unsetenv("BIODEM_GPU_WALK_PACK");
+    auto eb = gpu_engine(*b);
+    ::unsetenv("BIODEM_GPU_RECORDS");
+    for (auto* e : {ea.get(), eb.get()}) {
+      e->set_entry_forces(false);
+      e->set_walk_kick(set.walk_kick);
+      e->set_check_every(3);
+      e->upload();
+    }
+    std::size_t most = 0;
+    const std::uint64_t steps = step_alike_in_runs(*ea, *eb, *a, *b, true, &most);
+    set_parallel_threshold(old);
+    std::printf("[measured] %s, touching contacts shared vs one thread per row: %llu steps, %llu list builds, up to "
+                "%zu contacts after a run; bit-identical after every run\n",
+                set.name, static_cast<unsigned long long>(steps), static_cast<unsigned long long>(ea->list_builds()),
+                most);
+    EXPECT_GT(ea->list_builds(), 2u);
+    EXPECT_GT(most, 10u);
+    if (set.walk_kick) {
+      EXPECT_GT(ea->walk_kick_steps(), steps / 2);
+    }
+    const std::string how = ea->contact_kernels();
+    EXPECT_NE(how.find("share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1"), std::string::npos) << how;
+    EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_WALK_PACK"), std::string::npos);
+  }
+  // Where no walk by one thread runs, the switch is named as unused.
+  for (const bool clumps_walk_kick : {false, true}) {
+    auto s = packing(0.5e-3);
+    ::setenv("BIODEM_GPU_WALK_PACK", "1", 1);
+    auto e = gpu_engine(*s);
+    ::unsetenv("BIODEM_GPU_WALK_PACK");
+    e->set_entry_forces(!clumps_walk_kick);
+    e->set_walk_kick(clumps_walk_kick);
+    e->upload();
+    EXPECT_EQ(e->advance(20).steps, 20u);
+    EXPECT_NE(e->contact_kernels().find(clumps_walk_kick ? "BIODEM_GPU_WALK_PACK=1 unused (the clumps' walk with the body update"
+                                                         : "BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"),
+              std::string::npos)
+        << e->contact_kernels();
+  }
+}
+
 // The switches of how the spheres are loaded and of the body kernel's lanes take their values
 // and nothing else, named in the error.
 TEST(GpuEngine, SphereLoadSwitchesRefuseOtherValues) {
   auto s = packing(0.5e-3);
-  for (const char* name : {"BIODEM_GPU_RECORDS", "BIODEM_GPU_OWN_SPHERE", "BIODEM_GPU_BODY_LANES"}) {
+  for (const char* name : {"BIODEM_GPU_RECORDS", "BIODEM_GPU_OWN_SPHERE", "BIODEM_GPU_BODY_LANES", "BIODEM_GPU_WALK_PACK"}) {
     ::setenv(name, "3", 1);
     try {
       auto e = gpu_engine(*s);
