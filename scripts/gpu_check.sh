@@ -27,8 +27,11 @@
 #      lanes, BIODEM_GPU_SUM_LANES=1, and over every row entry instead of the pair list,
 #      BIODEM_GPU_PAIR_LIST=full; the one-thread walk and the entry kernels reading the spheres'
 #      records, BIODEM_GPU_RECORDS=1, the walk holding its own sphere, the entry kernels with
-#      the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), and on a GPU the row walk with 1, 2 and 32 lanes and
-#      blocks of 32 and 512 threads, byte-identical to (3);
+#      the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto; the clumps' walk with the
+#      body update, BIODEM_GPU_WALK_KICK=1; the one-thread walks of a warp sharing their touching
+#      contacts, BIODEM_GPU_WALK_PACK=1), and on a GPU the row walk with 1, 2 and 32 lanes, the
+#      groups of lanes per body and the shared touching contacts, with blocks of 32 and 512
+#      threads, byte-identical to (3);
 #      (3j) the list build by one thread per row (BIODEM_GPU_BUILD_LANES=1) byte-identical to
 #      (3), and on a GPU the grouped build with 2, 8 and 32 lanes per row;
 #   4. the same run killed after step 9,001 and resumed, compared byte for byte with (3);
@@ -284,21 +287,25 @@ BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OW
 BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 BIODEM_GPU_BODY_LANES=auto run_biodem needles_records_entries "$needles" "$OUT/needles_records_entries" --device "$DEVICE"; sx=$?
 # (the clumps' row walk with the body update by a group of lanes per body, two buffers)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem needles_walk_kick "$needles" "$OUT/needles_walk_kick" --device "$DEVICE"; sk=$?
-lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d7=""; d=""
-lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), the walk with the body update by groups of lanes per body (BIODEM_GPU_WALK_KICK=1) forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sk -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt, needles_walk_kick.txt)"
+# (the one-thread walks of a warp sharing their touching contacts; emulated, groups of one lane)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 run_biodem needles_packed "$needles" "$OUT/needles_packed" --device "$DEVICE"; sw=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d7=""; d8=""; d=""
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), the walk with the body update by groups of lanes per body (BIODEM_GPU_WALK_KICK=1), the one-thread walks sharing their touching contacts across a warp (BIODEM_GPU_WALK_PACK=1) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sk -ne 0 ] || [ $sw -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt, needles_walk_kick.txt, needles_packed.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
      ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass") ||
      ! d5=$(same_files "$OUT/needles_a" "$OUT/needles_records_rows") || ! d6=$(same_files "$OUT/needles_a" "$OUT/needles_records_entries") ||
-     ! d7=$(same_files "$OUT/needles_a" "$OUT/needles_walk_kick"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6 $d7)"
+     ! d7=$(same_files "$OUT/needles_a" "$OUT/needles_walk_kick") || ! d8=$(same_files "$OUT/needles_a" "$OUT/needles_packed"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6 $d7 $d8)"
 elif ! grep -q 'BIODEM_GPU_RECORDS=1' "$OUT/needles_records_rows/run.log" || ! grep -q 'BIODEM_GPU_OWN_SPHERE=1' "$OUT/needles_records_rows/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 does not say so in run.log"
 elif ! grep -q 'by 4 lanes per body' "$OUT/needles_records_entries/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_BODY_LANES=auto does not report 4 lanes per body in run.log"
 elif ! grep -q 'in groups of 4 lanes per body (ForcesKickDriftGroups' "$OUT/needles_walk_kick/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_WALK_KICK=1 does not report the walk with the body update by 4 lanes per body in run.log"
+elif ! grep -q 'share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1' "$OUT/needles_packed/run.log"; then
+  lanes_ok=0; lanes_detail="the run with BIODEM_GPU_WALK_PACK=1 does not report the shared touching contacts in run.log"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -321,6 +328,14 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the clumps' body kernel by 2 and 32 lanes and the walk with the body update by groups of 4, x blocks of 32, 512 byte-identical"
+  # (the walks sharing their touching contacts: one warp's scratch per block, and eight: blocks
+  # of 512 launch it in blocks of 256)
+  for block in 32 512; do
+    why=$(variant_same "$OUT/needles_rows" "needles_packed_block$block" BIODEM_GPU_FORCES=rows \
+          BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_BLOCK=$block) ||
+      { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_PACK=1, blocks of $block: $why"; }
+  done
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts x blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
@@ -521,7 +536,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packed}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -537,6 +552,8 @@ if [ "$DEVICE" = gpu ]; then
       kickgroups) what=", the clumps' row walk with the body update by groups of lanes per body (two buffers), records"
                   envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_RECORDS=1) ;;
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
+      packed) what=", one-thread walks sharing their touching contacts across a warp (shared memory)"
+              envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1) ;;
       records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"
                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;

@@ -780,11 +780,14 @@ bool launch_packed_walks(std::uint32_t n, const W& w) {
     (void)w;
     return false;
   } else {
-    const std::uint32_t block = launch_block();  // (at least 32: whole warps)
+    // (whole warps: at least 32; at most 256, so that the warps' scratch stays within the 48 KB
+    // of shared memory a block may take without asking: 8 x 3,840 bytes)
+    const std::uint32_t block = launch_block() < 256u ? launch_block() : 256u;
     const std::uint64_t blocks = (static_cast<std::uint64_t>(n) + block - 1) / block;
     if (blocks * block > 0xffffffffull)
       throw Error("GPU engine: a kernel over " + std::to_string(n) + " items exceeds 2^32 threads (32-bit indices)");
     const auto bytes = static_cast<std::uint32_t>((block / 32) * sizeof(PackedWalkScratch<ContactArgs::EntryHead>));
+    static_assert(8 * sizeof(PackedWalkScratch<ContactArgs::EntryHead>) <= 48u * 1024u, "a block's scratch within 48 KB");
     launch_kernel_shared(for_each_packed_walk<W>, static_cast<std::uint32_t>(blocks), block, bytes, n, w);
     check_cuda("a kernel launch");
     return true;
