@@ -8,7 +8,8 @@
 #   2. Nsight Compute's source counters (warp stall samples per SASS instruction, with the stall
 #      reasons, and the instructions executed) of two launches of the step kernels in the timed
 #      rotation phase: the raw drum with the row walk in one thread per sphere and the clumps'
-#      body kernel (Forces, ReduceKickDrift), glass_small with the entry kernels (PairEntries,
+#      body kernel (Forces, ReduceKickDrift), the same with the walks of a warp sharing their
+#      touching contacts (BIODEM_GPU_WALK_PACK=1), glass_small with the entry kernels (PairEntries,
 #      SumEntriesKickDrift), and the raw drum in the order-free family with its entry kernels
 #      (PairEntriesFixed, ReduceKickDriftFixed). One CSV per run (ncu --page source), gzipped,
 #      and the report file. ncu writes its report when the program ends: a run cut by its time
@@ -88,6 +89,9 @@ profile() {  # case launches-to-skip label VAR=value...
   rm -rf "$OUT/run_$label"
 }
 profile raw 61000 raw_walk1 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1
+# (the same walk with the touching contacts shared across a warp: its active threads per warp
+# against raw_walk1's 13.8 of 32)
+profile raw 61000 raw_packed BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1
 profile glass_small 24000 glass_small_entries BIODEM_GPU_FORCES=entries
 profile raw 61000 raw_fixed BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=entries
 ls -la "$OUT"

@@ -94,15 +94,19 @@ rm -f "$OUT/profile.txt"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
 # (most telling first, so that a sweep cut short by its time limit keeps them: the walk with
 # the body update forced and apart (on the raw drum the clumps' ForcesKickDriftGroups, not yet
-# timed), then the other changes not yet timed, between two defaults; threads per block and
-# steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2 or
-# 8 lanes and the build by one thread per row, measured in every lease of 2026-11-26 and 27,
-# BIODEM_GPU_QUEUED_CHECK=0 (likewise) and the one-thread walk holding its own sphere alone,
-# are left to SWEEP_SETTINGS: 23
-# settings, about 170 s on the H100 as lease 9's 23)
+# timed), the one-thread walks with their touching contacts shared across a warp
+# (BIODEM_GPU_WALK_PACK=1, not yet timed; on the raw drum only apart from the body update),
+# then the other changes not yet timed, between two defaults; threads per block and
+# steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2, 4
+# (BIODEM_GPU_FORCES=rows) or 8 lanes and the build by one thread per row, measured in every
+# lease of 2026-11-26 and 27, BIODEM_GPU_QUEUED_CHECK=0 (likewise) and the one-thread walk
+# holding its own sphere alone, are left to SWEEP_SETTINGS: 24
+# settings, about 180 s on the H100 as lease 9's 23 took 170)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
-  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_RECORDS=1 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0+BIODEM_GPU_WALK_PACK=1 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_RECORDS=1 \
   BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto \
   BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1+BIODEM_GPU_BODY_LANES=auto \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_RECORDS=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 default \
@@ -110,8 +114,7 @@ settings=${SWEEP_SETTINGS-default BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+
   BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows BIODEM_GPU_SUMS=fixed+BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1 \
   BIODEM_GPU_FORCES=entries BIODEM_GPU_FORCES=entries+BIODEM_GPU_PAIR_LIST=full BIODEM_GPU_SUMS=fixed+BIODEM_GPU_PAIR_LIST=full \
   BIODEM_GPU_PDL=0 BIODEM_GPU_PROFILE=1 \
-  BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_WALK_KICK=1 \
-  BIODEM_GPU_FORCES=rows default}
+  BIODEM_GPU_FORCES=entries+BIODEM_GPU_SUM_LANES=1 BIODEM_GPU_FORCES=rows+BIODEM_GPU_WALK_KICK=1 default}
 [ -n "$settings" ] || exit 0
 for setting in $settings; do
   envs=()

@@ -29,7 +29,7 @@
 # that gets only the report, the CSV files, the log and lease.tgz, for a lease that brings back
 # few files), GPU_LEASE_CHECK_S (seconds for gpu_check.sh, default 260), GPU_LEASE_BENCH_S and
 # GPU_LEASE_BENCH2_S (the first and each further bench, default 200 and 60), GPU_LEASE_SASS_S (300;
-# GPU_LEASE_SASS_NCU_S, 90, for each of its three ncu runs), GPU_LEASE_SWEEP_S
+# GPU_LEASE_SASS_NCU_S, 90, for each of its four ncu runs), GPU_LEASE_SWEEP_S
 # (200), GPU_LEASE_SWEEP_SETTINGS (run_gpu_sweep.sh's SWEEP_SETTINGS), GPU_LEASE_SCALING_S (120),
 # GPU_LEASE_CPU_THREADS (CPU engine threads beside the GPU bench; default all, empty: none),
 # GPU_LEASE_SOURCE_DIR (where the build was configured; default: devcarry/source_dir),
