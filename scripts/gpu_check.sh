@@ -289,23 +289,27 @@ BIODEM_GPU_FORCES=entries BIODEM_GPU_RECORDS=1 BIODEM_GPU_BODY_LANES=auto run_bi
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem needles_walk_kick "$needles" "$OUT/needles_walk_kick" --device "$DEVICE"; sk=$?
 # (the one-thread walks of a warp sharing their touching contacts; emulated, groups of one lane)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 run_biodem needles_packed "$needles" "$OUT/needles_packed" --device "$DEVICE"; sw=$?
-lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d7=""; d8=""; d=""
-lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), the walk with the body update by groups of lanes per body (BIODEM_GPU_WALK_KICK=1), the one-thread walks sharing their touching contacts across a warp (BIODEM_GPU_WALK_PACK=1) forced byte-identical to (3)"
-if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sk -ne 0 ] || [ $sw -ne 0 ] || [ $sa -ne 0 ]; then
-  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt, needles_walk_kick.txt, needles_packed.txt)"
+# (and the clumps' walk with the body update by groups of lanes per body, sharing them too)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1 run_biodem needles_packed_groups "$needles" "$OUT/needles_packed_groups" --device "$DEVICE"; sg=$?
+lanes_ok=1; d1=""; d2=""; d3=""; d4=""; d5=""; d6=""; d7=""; d8=""; d9=""; d=""
+lanes_detail="rows, entries, entries with the sums by the row lanes (BIODEM_GPU_SUM_LANES=1), entries over every row entry instead of the pair list (BIODEM_GPU_PAIR_LIST=full), the one-thread walk and the entries reading the spheres' records (BIODEM_GPU_RECORDS=1, the walk with BIODEM_GPU_OWN_SPHERE=1, the entries with the clumps' body kernel by lanes, BIODEM_GPU_BODY_LANES=auto), the walk with the body update by groups of lanes per body (BIODEM_GPU_WALK_KICK=1), the one-thread walks and the clumps' walk with the body update sharing their touching contacts across a warp (BIODEM_GPU_WALK_PACK=1) forced byte-identical to (3)"
+if [ $sr -ne 0 ] || [ $se -ne 0 ] || [ $sl -ne 0 ] || [ $sp -ne 0 ] || [ $sq -ne 0 ] || [ $sx -ne 0 ] || [ $sk -ne 0 ] || [ $sw -ne 0 ] || [ $sg -ne 0 ] || [ $sa -ne 0 ]; then
+  lanes_ok=0; lanes_detail="a run failed (logs/needles_rows.txt, needles_entries.txt, needles_sum_lanes.txt, needles_full_pass.txt, needles_records_rows.txt, needles_records_entries.txt, needles_walk_kick.txt, needles_packed.txt, needles_packed_groups.txt)"
 elif ! d1=$(same_files "$OUT/needles_a" "$OUT/needles_rows") || ! d2=$(same_files "$OUT/needles_a" "$OUT/needles_entries") ||
      ! d3=$(same_files "$OUT/needles_a" "$OUT/needles_sum_lanes") || ! d4=$(same_files "$OUT/needles_a" "$OUT/needles_full_pass") ||
      ! d5=$(same_files "$OUT/needles_a" "$OUT/needles_records_rows") || ! d6=$(same_files "$OUT/needles_a" "$OUT/needles_records_entries") ||
-     ! d7=$(same_files "$OUT/needles_a" "$OUT/needles_walk_kick") || ! d8=$(same_files "$OUT/needles_a" "$OUT/needles_packed"); then
-  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6 $d7 $d8)"
+     ! d7=$(same_files "$OUT/needles_a" "$OUT/needles_walk_kick") || ! d8=$(same_files "$OUT/needles_a" "$OUT/needles_packed") ||
+     ! d9=$(same_files "$OUT/needles_a" "$OUT/needles_packed_groups"); then
+  lanes_ok=0; lanes_detail="the kernel sets differ: $(echo $d1 $d2 $d3 $d4 $d5 $d6 $d7 $d8 $d9)"
 elif ! grep -q 'BIODEM_GPU_RECORDS=1' "$OUT/needles_records_rows/run.log" || ! grep -q 'BIODEM_GPU_OWN_SPHERE=1' "$OUT/needles_records_rows/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 does not say so in run.log"
 elif ! grep -q 'by 4 lanes per body' "$OUT/needles_records_entries/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_BODY_LANES=auto does not report 4 lanes per body in run.log"
 elif ! grep -q 'in groups of 4 lanes per body (ForcesKickDriftGroups' "$OUT/needles_walk_kick/run.log"; then
   lanes_ok=0; lanes_detail="the run with BIODEM_GPU_WALK_KICK=1 does not report the walk with the body update by 4 lanes per body in run.log"
-elif ! grep -q 'share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1' "$OUT/needles_packed/run.log"; then
-  lanes_ok=0; lanes_detail="the run with BIODEM_GPU_WALK_PACK=1 does not report the shared touching contacts in run.log"
+elif ! grep -q 'share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1' "$OUT/needles_packed/run.log" ||
+     ! grep -q 'ForcesKickDriftGroups.*share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1' "$OUT/needles_packed_groups/run.log"; then
+  lanes_ok=0; lanes_detail="a run with BIODEM_GPU_WALK_PACK=1 does not report the shared touching contacts (and the groups) in run.log"
 fi
 if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
   for lanes in 1 2 16 32; do
@@ -334,8 +338,11 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     why=$(variant_same "$OUT/needles_rows" "needles_packed_block$block" BIODEM_GPU_FORCES=rows \
           BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_BLOCK=$block) ||
       { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_PACK=1, blocks of $block: $why"; }
+    why=$(variant_same "$OUT/needles_rows" "needles_packed_groups_block$block" BIODEM_GPU_FORCES=rows \
+          BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_BLOCK=$block) ||
+      { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1, blocks of $block: $why"; }
   done
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts x blocks of 32, 512 byte-identical"
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts (one thread per row, and the clumps' groups with the body update) x blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
@@ -536,7 +543,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packed}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -554,6 +561,8 @@ if [ "$DEVICE" = gpu ]; then
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
       packed) what=", one-thread walks sharing their touching contacts across a warp (shared memory)"
               envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1) ;;
+      packedgroups) what=", the clumps' walk with the body update by groups, sharing the warp's touching contacts"
+                    envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1) ;;
       records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"
                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;

@@ -563,6 +563,11 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
 template <class W>
 bool launch_packed_walks(std::uint32_t n, const W& w);
 
+/// Groups of lanes per item whose row walks share a warp's touching contacts
+/// (WalkKickGroups::run_packed; defined after the kernels, below).
+template <class F>
+void launch_packed_groups(std::uint32_t n, const F& f, std::uint32_t lanes_log2);
+
 /// Items with a group of lanes each (defined after the kernels, below): f.run(item, group).
 template <class F>
 __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_group(std::uint32_t n, F f, std::uint32_t lanes_log2);
@@ -646,6 +651,12 @@ struct System {
     launch_kernel(for_each_group<F>, static_cast<std::uint32_t>((threads + block - 1) / block), block, n, f,
                   lanes_log2);
     check_cuda("a kernel launch");
+  }
+  /// launch_groups for WalkKickGroups with the warp's row walks sharing their touching contacts
+  /// (WalkKickGroups::run_packed, for_each_packed_group; BIODEM_GPU_WALK_PACK=1).
+  template <class F>
+  static void launch_groups_packed(std::uint32_t n, const F& f, std::uint32_t lanes_log2) {
+    launch_packed_groups(n, f, lanes_log2);
   }
   /// The row lanes, as run.log names them.
   static std::string walk_lanes() { return std::to_string(1u << row_lanes_log2()) + " lanes per sphere"; }
@@ -794,6 +805,23 @@ bool launch_packed_walks(std::uint32_t n, const W& w) {
   }
 }
 
+template <class F>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_packed_group(std::uint32_t n, F f, std::uint32_t lanes_log2);
+
+template <class F>
+void launch_packed_groups(std::uint32_t n, const F& f, std::uint32_t lanes_log2) {
+  const std::uint32_t block = launch_block() < 256u ? launch_block() : 256u;  // (as launch_packed_walks)
+  const std::uint64_t threads = static_cast<std::uint64_t>(n) << lanes_log2;
+  if (threads + block - 1 > 0xffffffffull)
+    throw Error("GPU engine: " + std::to_string(n) + " items of " + std::to_string(1u << lanes_log2) +
+                " lanes exceed 2^32 threads");
+  const auto bytes = static_cast<std::uint32_t>((block / 32) * sizeof(PackedWalkScratch<ContactArgs::EntryHead>));
+  launch_kernel_shared(for_each_packed_group<F>, static_cast<std::uint32_t>((threads + block - 1) / block), block, bytes,
+                       n, f, lanes_log2);
+  check_cuda("a kernel launch");
+}
+
 /// Row walks of whole warps with their touching contacts shared (kernels.hpp, walk_packed): a
 /// warp's lanes walk items 32 w .. 32 w + 31, and lanes past n stay in the warp to take their
 /// share (whole warps past n leave). Each warp's scratch is its part of the block's dynamic
@@ -807,6 +835,22 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_packed_walk(std
   using Scratch = PackedWalkScratch<ContactArgs::EntryHead>;
   Scratch& sc = reinterpret_cast<Scratch*>(packed_walk_shared)[threadIdx.x >> 5];
   walk_packed(w, item, item < n, WarpGroup::of_thread(5), sc);
+}
+
+/// Items with a group of 2^lanes_log2 lanes each whose row walks share the warp's touching
+/// contacts (WalkKickGroups::run_packed): as for_each_group, but the lanes of groups past n stay
+/// in the warp to take their share (whole warps past n leave); each warp's scratch in the
+/// block's dynamic shared memory.
+template <class F>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_packed_group(std::uint32_t n, F f, std::uint32_t lanes_log2) {
+  after_previous_kernel();
+  extern __shared__ __align__(16) unsigned char packed_group_shared[];
+  const std::uint32_t thread = blockIdx.x * blockDim.x + threadIdx.x, item = thread >> lanes_log2;
+  if (((thread & ~31u) >> lanes_log2) >= n) return;
+  using Scratch = PackedWalkScratch<ContactArgs::EntryHead>;
+  Scratch& sc = reinterpret_cast<Scratch*>(packed_group_shared)[threadIdx.x >> 5];
+  f.run_packed(item, item < n, WarpGroup::of_thread(lanes_log2), WarpGroup::of_thread(5), sc);
 }
 
 /// Items with a group of 2^lanes_log2 lanes each (System::launch_groups): a group never

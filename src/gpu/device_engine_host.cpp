@@ -124,6 +124,10 @@ struct System {
   static void launch_groups(std::uint32_t n, const F& f, std::uint32_t /*lanes_log2*/) {
     launch(n, f);
   }
+  /// launch_groups with the groups' row walks sharing their touching contacts
+  /// (WalkKickGroups::run_packed): here one thread per item, a group and a warp of one lane.
+  template <class F>
+  static void launch_groups_packed(std::uint32_t n, const F& f, std::uint32_t /*lanes_log2*/);
   /// The grouped list build (kernels.hpp, BuildRowsGrouped): here one thread runs each row's
   /// group as a group of one lane.
   template <class B>
@@ -169,6 +173,14 @@ template <class F>
 void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
   const SequentialSum<F> sum{f, n, out, halt};
   sum(0);
+}
+
+template <class F>
+void System::launch_groups_packed(std::uint32_t n, const F& f, std::uint32_t) {
+  launch(n, [&f](std::uint32_t k) {
+    PackedWalkScratch<ContactArgs::EntryHead> sc;
+    f.run_packed(k, true, OneLane{}, OneLane{}, sc);
+  });
 }
 
 template <class W>

@@ -350,10 +350,8 @@ class Engine final : public DeviceEngine {
                : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
     if (walk_pack_)
       r += use_entry_kernels() || fixed_sums_ ? "; BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"
-           : walk_kick() && !single_spheres_
-               ? "; BIODEM_GPU_WALK_PACK=1 unused (the clumps' walk with the body update has its own groups of lanes)"
-               : "; where one thread walks a row, the walks of a warp share their touching contacts across its lanes "
-                 "(BIODEM_GPU_WALK_PACK=1; on CPU threads one lane)";
+           : "; where one thread walks a row, the walks of a warp share their touching contacts across its lanes "
+             "(BIODEM_GPU_WALK_PACK=1; on CPU threads one lane)";
     if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
       r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
     if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
@@ -1556,7 +1554,8 @@ void Engine::launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd)
     ForcesKickDriftGroups<Cohesion, Rolling> g;
     static_cast<ContactArgs&>(g.walk) = c;
     g.out = ReduceKickDriftLanes{rkd};
-    if (nb()) System::launch_groups(nb(), g, walk_kick_lanes_log2_);
+    if (nb() && walk_pack_) System::launch_groups_packed(nb(), g, walk_kick_lanes_log2_);
+    else if (nb()) System::launch_groups(nb(), g, walk_kick_lanes_log2_);
     return;
   }
   ForcesKickDrift<Cohesion, Rolling> w;

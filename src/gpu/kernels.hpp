@@ -2047,6 +2047,26 @@ struct WalkKickGroups {
     grp.sync();  // (every lane's sphere sums stored before any lane loads them)
     out.run_summing(k, grp, walk.s);
   }
+  /// run with the walks of the whole warp's spheres sharing their touching contacts
+  /// (walk_packed; BIODEM_GPU_WALK_PACK=1): every lane of the warp calls it, `valid` false for a
+  /// group past the bodies; lane l of body k's group walks its spheres l, l + lanes, ... in
+  /// rounds that the warp makes together (one round when the groups have as many lanes as the
+  /// most spheres of a body, as the engine makes them), then the group finishes the body as in
+  /// run. The same walks, so the same bits.
+  template <class Group, class Warp, class Head>
+  BIODEM_HD void run_packed(std::uint32_t k, bool valid, const Group& grp, const Warp& warp,
+                            PackedWalkScratch<Head>& sc) const {
+    if (halted(out.rkd.halt)) return;  // (the same flag for every lane of the warp)
+    // (the body's first sphere and count loaded again each round rather than held across the
+    // walk: with cohesion and rolling friction ptxas spilled 16 bytes holding them)
+    for (std::uint32_t c = grp.lane();; c += grp.size()) {
+      const bool mine = valid && c < out.rkd.b.sphere_count[k];
+      if (warp.ballot(mine) == 0) break;
+      walk_packed(walk, mine ? out.rkd.b.first_sphere[k] + c : 0u, mine, warp, sc);
+    }
+    grp.sync();  // (every lane's sphere sums stored before any lane loads them)
+    if (valid) out.run_summing(k, grp, walk.s);
+  }
   BIODEM_HD void operator()(std::uint32_t k) const { run(k, OneLane{}); }
 };
 /// Forces' one-thread walk without the own-sphere variant (BIODEM_GPU_OWN_SPHERE): compiled into

@@ -1846,9 +1846,10 @@ TEST(GpuEngine, SphereRecordsAndTheWalksOwnSphereGiveTheBitsOfTheArrays) {
 // (ForcesKickDrift), and a box periodic along x, y and z (image shifts in the tests), stepped in
 // runs across list checks, rebuilds with sorts of the bodies, a criterion phase and an upload:
 // bit-identical after every run, serially and on two threads, with the spheres read from the
-// arrays and from their records. The clumps' walk with the body update (its own groups of lanes)
-// and the entry kernels are not packed, and run.log says so. (It fails when the pair test says
-// "apart" for every pair, or the wall test for every wall: checked.)
+// arrays and from their records, and with the clumps' walk with the body update by groups of
+// lanes per body (ForcesKickDriftGroups, WalkKickGroups::run_packed). The entry kernels are not
+// packed, and run.log says so. (It fails when the pair test says "apart" for every pair, or the
+// wall test for every wall: checked.)
 TEST(GpuEngine, WarpsSharingTheirTouchingContactsGiveTheBitsOfTheWalk) {
   struct Set {
     const char* name;
@@ -1859,6 +1860,8 @@ TEST(GpuEngine, WarpsSharingTheirTouchingContactsGiveTheBitsOfTheWalk) {
       {"needles and beads, row walk", 0, false, false, false},
       {"needles and beads, row walk, two threads", 0, false, false, true},
       {"needles and beads, row walk, records", 0, false, true, false},
+      {"needles and beads, clumps' walk with the body update by groups, two threads", 0, true, false, true},
+      {"needles and beads, clumps' walk with the body update by groups, records", 0, true, true, false},
       {"bed of beads, row walk with the body update, two threads", 1, true, false, true},
       {"bed of beads, row walk, records", 1, false, true, false},
       {"periodic box, row walk", 2, false, false, true},
@@ -1900,19 +1903,17 @@ TEST(GpuEngine, WarpsSharingTheirTouchingContactsGiveTheBitsOfTheWalk) {
     EXPECT_NE(how.find("share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1"), std::string::npos) << how;
     EXPECT_EQ(eb->contact_kernels().find("BIODEM_GPU_WALK_PACK"), std::string::npos);
   }
-  // Where no walk by one thread runs, the switch is named as unused.
-  for (const bool clumps_walk_kick : {false, true}) {
+  // Where no row walk runs, the switch is named as unused.
+  for (const bool fixed : {false, true}) {
     auto s = packing(0.5e-3);
     ::setenv("BIODEM_GPU_WALK_PACK", "1", 1);
     auto e = gpu_engine(*s);
     ::unsetenv("BIODEM_GPU_WALK_PACK");
-    e->set_entry_forces(!clumps_walk_kick);
-    e->set_walk_kick(clumps_walk_kick);
+    e->set_entry_forces(!fixed);
+    if (fixed) e->set_fixed_sums(true);
     e->upload();
     EXPECT_EQ(e->advance(20).steps, 20u);
-    EXPECT_NE(e->contact_kernels().find(clumps_walk_kick ? "BIODEM_GPU_WALK_PACK=1 unused (the clumps' walk with the body update"
-                                                         : "BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"),
-              std::string::npos)
+    EXPECT_NE(e->contact_kernels().find("BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"), std::string::npos)
         << e->contact_kernels();
   }
 }

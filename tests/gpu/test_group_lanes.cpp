@@ -27,6 +27,7 @@
 #include <barrier>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <thread>
@@ -1068,6 +1069,150 @@ TEST(BodyLanes, WalkAndBodyUpdateByGroupsGiveTheBitsOfTheTwoKernels) {
                   lanes, records ? " (records)" : "", kBodies, n,
                   fused.first_difference(one).empty() && same_forces ? "bit-identical" : "differ");
     }
+    MadeUpClumps start(kBodies, records);
+    EXPECT_NE(start.first_difference(one), "");  // (the comparison is of changed state)
+  }
+}
+
+namespace {
+
+/// A made-up row walk for WalkKickGroups::run_packed (the interface of Forces that walk_packed
+/// uses): sphere a's walk has a % 6 contacts, the last a wall when there are more than two; pair
+/// entry v's neighbour is sphere (7 a + 3 + 5 v) mod n, a contact touching unless (a + v) is a
+/// multiple of 3, its force from the two centres (read from the walk's buffer) and a's velocity
+/// and spin; a touching contact evaluated apart, or the head of another entry, gives a force
+/// that changes the sums (and is counted). walk_end stores a's sums as Forces does.
+struct SpringRowWalk {
+  SphereArrays s;
+  std::uint32_t n = 0;
+  std::atomic<std::uint32_t>* wrong = nullptr;
+  struct Head {
+    std::uint32_t b = ~0u, v = ~0u;
+  };
+  bool walk_begin(std::uint32_t a, WalkStart& st) const {
+    st.a = a;
+    st.sid_a = a;
+    st.total = a % 6;
+    st.len = st.total > 2 ? st.total - 1 : st.total;
+    return true;
+  }
+  std::uint32_t head_limit() const { return 8; }
+  Head walk_head(std::uint32_t a, std::uint32_t v) const { return Head{(7 * a + 3 + 5 * v) % n, v}; }
+  bool touching(const WalkStart& st, std::uint32_t v) const { return (st.a + v) % 3 != 0; }
+  RowContact contact(const WalkStart& st, std::uint32_t v, std::uint32_t b) const {
+    RowContact r;
+    if (v >= st.total || !touching(st, v)) return r;
+    const Vec3 d = s.position[st.a] - (v < st.len ? s.position[b] : Vec3{0.01, -0.02, 0.03});
+    r.force = static_cast<double>(v + 1) * 1e-2 * d + 1e-4 * s.velocity[st.a];
+    r.torque = 1e-6 * cross(d, s.omega[st.a]);
+    r.kind = v >= st.len ? 3u : (st.a < b ? 1u : 2u);
+    return r;
+  }
+  RowContact walk_entry(const WalkStart& st, std::uint32_t v) const {
+    return contact(st, v, v < st.len ? walk_head(st.a, v).b : 0u);
+  }
+  bool walk_touches_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    if (h.v != v || h.b != walk_head(st.a, v).b) ++*wrong;
+    return touching(st, v);
+  }
+  bool walk_touches(const WalkStart& st, std::uint32_t v) const { return touching(st, v); }
+  RowContact walk_entry_from(const WalkStart& st, std::uint32_t v, const Head& h) const {
+    if (!touching(st, v)) {
+      ++*wrong;
+      RowContact r;
+      r.kind = 1;
+      r.force = Vec3{1e30, 1e30, 1e30};
+      return r;
+    }
+    return contact(st, v, h.b);
+  }
+  void walk_end(std::uint32_t a, const WalkStart&, const Vec3& f, const Vec3& t, std::uint32_t c) const {
+    s.force[a] = f;
+    s.torque[a] = t;
+    s.contacts[a] = c;
+  }
+};
+
+}  // namespace
+
+// The clumps' row walk with the body update by a group of lanes per body whose walks share the
+// warp's touching contacts (WalkKickGroups::run_packed, what for_each_packed_group runs on CUDA
+// with BIODEM_GPU_WALK_PACK=1; the walk here a made-up one with pair entries and a wall), with
+// warps of 32 thread lanes in groups of 1, 2, 4, 8 and 16 lanes per body (bodies of 1 to 11
+// spheres: with fewer lanes than spheres the warp walks in several rounds; the last warp partly
+// past the bodies), stepped three times with the two buffers swapped, give the bits of the walk
+// by one thread per sphere then ReduceKickDrift in one thread per body, in every body and sphere
+// array, the spheres' sums and the records. (It fails when the rounds stop after the groups'
+// first round of spheres: checked. The group's sync after the walks it cannot check: here the
+// warp's last ballot of the rounds, a barrier of the thread lanes, orders the walks' stores
+// before the body sums' loads; on a GPU a ballot does not order memory, the sync does.)
+TEST(BodyLanes, WalkWithTheWarpsTouchingContactsSharedAndBodyUpdateGiveTheBitsOfTheTwoKernels) {
+  constexpr std::uint32_t kBodies = 120;
+  for (const bool records : {false, true}) {
+    MadeUpClumps one(kBodies, records);
+    const std::uint32_t n = static_cast<std::uint32_t>(one.sx.size());
+    std::atomic<std::uint32_t> wrong{0};
+    {
+      const ReduceKickDrift r1 = one.kernel();
+      const SpringRowWalk w1{r1.s, n, &wrong};
+      for (int step = 0; step < 3; ++step) {
+        for (std::uint32_t a = 0; a < n; ++a) walk_row(w1, a);
+        for (std::uint32_t k = 0; k < kBodies; ++k) r1(k);
+      }
+    }
+    for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 16u}) {
+      MadeUpClumps fused(kBodies, records), other(kBodies, records);  // (other: the second buffer's motion)
+      const std::uint32_t per_warp = 32 / lanes, warps = (kBodies + per_warp - 1) / per_warp;
+      for (int step = 0; step < 3; ++step) {
+        MadeUpClumps& from = step % 2 == 0 ? fused : other;
+        MadeUpClumps& to = step % 2 == 0 ? other : fused;
+        ReduceKickDrift rk = fused.kernel();  // (the body arrays, forces and offsets: fused's)
+        SphereArrays walk_s = rk.s;
+        walk_s.position = from.sx.data();
+        walk_s.velocity = from.sv.data();
+        walk_s.omega = from.sw.data();
+        walk_s.record = records ? from.rec.data() : nullptr;
+        rk.s.position = to.sx.data();
+        rk.s.velocity = to.sv.data();
+        rk.s.omega = to.sw.data();
+        rk.s.record = records ? to.rec.data() : nullptr;
+        const WalkKickGroups<SpringRowWalk> g{SpringRowWalk{walk_s, n, &wrong}, ReduceKickDriftLanes{rk}};
+        // a warp of 32 thread lanes, each group of `lanes` of them a body's
+        GroupState warp_state(32);
+        std::vector<std::unique_ptr<GroupState>> group_state;
+        for (std::uint32_t q = 0; q < per_warp; ++q) group_state.push_back(std::make_unique<GroupState>(lanes));
+        PackedWalkScratch<SpringRowWalk::Head> scratch;
+        std::vector<std::thread> team;
+        for (std::uint32_t t = 0; t < 32; ++t)
+          team.emplace_back([&, t] {
+            const ThreadLanes warp{&warp_state, t, 32}, grp{group_state[t / lanes].get(), t % lanes, lanes};
+            for (std::uint32_t w = 0; w < warps; ++w) {
+              const std::uint32_t k = w * per_warp + t / lanes;
+              g.run_packed(k, k < kBodies, grp, warp, scratch);
+              warp.sync();  // (on a GPU each warp has a scratch of its own)
+            }
+          });
+        for (auto& th : team) th.join();
+      }
+      // (after three steps the motion is in the second buffer)
+      fused.sx = other.sx;
+      fused.sv = other.sv;
+      fused.sw = other.sw;
+      fused.rec = other.rec;
+      EXPECT_EQ(fused.first_difference(one), "") << lanes << " lanes" << (records ? ", records" : "");
+      const bool same_forces = std::memcmp(fused.sf.data(), one.sf.data(), n * sizeof(Vec3)) == 0 &&
+                               std::memcmp(fused.st.data(), one.st.data(), n * sizeof(Vec3)) == 0 &&
+                               fused.scont == one.scont;
+      EXPECT_TRUE(same_forces) << lanes << " lanes: the spheres' sums";
+      std::printf("[measured] clumps' walk sharing the warp's touching contacts, with the body update by %u lanes, vs the "
+                  "walk then ReduceKickDrift%s: %u bodies, %u spheres, 3 steps: %s\n",
+                  lanes, records ? " (records)" : "", kBodies, n,
+                  fused.first_difference(one).empty() && same_forces ? "bit-identical" : "differ");
+    }
+    EXPECT_EQ(wrong.load(), 0u) << (records ? "records" : "arrays");
+    std::uint32_t contacts = 0;
+    for (std::uint32_t a = 0; a < n; ++a) contacts += one.scont[a];
+    EXPECT_GT(contacts, 100u);
     MadeUpClumps start(kBodies, records);
     EXPECT_NE(start.first_difference(one), "");  // (the comparison is of changed state)
   }
