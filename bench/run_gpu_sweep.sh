@@ -95,7 +95,8 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # (most telling first, so that a sweep cut short by its time limit keeps them: the walk with
 # the body update forced and apart (on the raw drum the clumps' ForcesKickDriftGroups, not yet
 # timed), the one-thread walks with their touching contacts shared across a warp
-# (BIODEM_GPU_WALK_PACK=1, not yet timed; on the raw drum only apart from the body update),
+# (BIODEM_GPU_WALK_PACK=1, not yet timed; apart from the body update and with it, on the raw
+# drum the clumps' groups),
 # then the other changes not yet timed, between two defaults; threads per block and
 # steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2, 4
 # (BIODEM_GPU_FORCES=rows) or 8 lanes and the build by one thread per row, measured in every
