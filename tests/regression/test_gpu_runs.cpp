@@ -310,7 +310,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_GPU_PDL=on", "BIODEM_GPU_SUMS=sorted",
                                 "BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUM_LANES=1",
                                 "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1", "BIODEM_GPU_PAIR_LIST=short",
-                                "BIODEM_GPU_RECORDS=2", "BIODEM_GPU_OWN_SPHERE=yes", "BIODEM_GPU_BODY_LANES=3"}) {
+                                "BIODEM_GPU_RECORDS=2", "BIODEM_GPU_OWN_SPHERE=yes", "BIODEM_GPU_BODY_LANES=3",
+                                "BIODEM_GPU_WALK_PACK=2"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -322,7 +323,7 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   const std::string ok = fresh_dir("gpu_good_switch");  // the documented values run
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 "
                        "BIODEM_GPU_BUILD_LANES=1 BIODEM_GPU_SUM_LANES=auto BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_PDL=0 "
-                       "BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto " +
+                       "BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto BIODEM_GPU_WALK_PACK=1 " +
                        biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
@@ -332,6 +333,7 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   EXPECT_NE(how.find("BIODEM_GPU_RECORDS=1"), std::string::npos) << how;
   EXPECT_NE(how.find("in groups of 4 lanes per body (ForcesKickDriftGroups"), std::string::npos) << how;
   EXPECT_NE(how.find("BIODEM_GPU_BODY_LANES unused (the walk with the body update"), std::string::npos) << how;
+  EXPECT_NE(how.find("share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1"), std::string::npos) << how;
   const std::string fixed = fresh_dir("gpu_fixed_sums");  // the order-free family runs and says so
   r = run_command("BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=auto " + biodem_exe() + " run " + kNeedles + " --out " +
                   fixed + " --device " + gpu_device());
