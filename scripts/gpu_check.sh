@@ -503,6 +503,9 @@ BIODEM_GPU_FORCES=entries BIODEM_GPU_SUM_LANES=1 run_biodem wide_sum_lanes "$wid
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 run_biodem wide_walk_kick "$wide" "$OUT/wide_walk_kick" --device "$DEVICE"; wk=$?
 # (the same with the spheres' records, in both buffers, and the walk holding its own sphere)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 run_biodem wide_walk_kick_records "$wide" "$OUT/wide_walk_kick_records" --device "$DEVICE"; wr=$?
+# (the walk in one thread with the body update sharing the warp's touching contacts, reading
+# the records: the packed ForcesKickDrift and the records' centre loads of its tests)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_WALK_PACK=1 run_biodem wide_walk_kick_packed "$wide" "$OUT/wide_walk_kick_packed" --device "$DEVICE"; wp=$?
 # (the entry kernels over every row entry and wall slot, against the pair and wall-slot lists,
 # across the widenings)
 BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem wide_full_pass "$wide" "$OUT/wide_full_pass" --device "$DEVICE"; wf=$?
@@ -528,6 +531,10 @@ else
   if [ $wr -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_RECORDS=1 failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_records"); then detail="$detail; the same reading the spheres' records, own sphere held (BIODEM_GPU_RECORDS=1, BIODEM_GPU_OWN_SPHERE=1) byte-identical"
   else ok=0; detail="$detail; the walk with the body update reading the records differs: $(echo $diff)"; fi
+  if [ $wp -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_WALK_PACK=1 failed"
+  elif ! grep -q 'ForcesKickDrift.*BIODEM_GPU_WALK_PACK=1;' "$OUT/wide_walk_kick_packed/run.log"; then ok=0; detail="$detail; BIODEM_GPU_WALK_PACK=1 with the body update not reported in run.log"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_packed"); then detail="$detail; the walk with the body update sharing the warp's touching contacts, records (BIODEM_GPU_WALK_PACK=1, BIODEM_GPU_RECORDS=1) byte-identical"
+  else ok=0; detail="$detail; the packed walk with the body update differs: $(echo $diff)"; fi
   if [ $wf -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PAIR_LIST=full failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_full_pass"); then detail="$detail; entry kernels over every entry (BIODEM_GPU_PAIR_LIST=full) byte-identical"
   else ok=0; detail="$detail; entry kernels over every entry differ: $(echo $diff)"; fi
@@ -543,7 +550,7 @@ if [ "$DEVICE" = gpu ]; then
   # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
   # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
   # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups}; do
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups synccheck:packedgroups}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in

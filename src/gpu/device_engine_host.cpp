@@ -178,7 +178,7 @@ void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint3
 template <class F>
 void System::launch_groups_packed(std::uint32_t n, const F& f, std::uint32_t) {
   launch(n, [&f](std::uint32_t k) {
-    PackedWalkScratch<ContactArgs::EntryHead> sc;
+    thread_local PackedWalkScratch<ContactArgs::EntryHead> sc;  // (one per thread, not zeroed per item)
     f.run_packed(k, true, OneLane{}, OneLane{}, sc);
   });
 }
@@ -191,7 +191,7 @@ bool run_packed_walks(std::uint32_t n, const W& w) {
     return false;
   } else {
     System::launch(n, [&w](std::uint32_t i) {
-      PackedWalkScratch<ContactArgs::EntryHead> sc;
+      thread_local PackedWalkScratch<ContactArgs::EntryHead> sc;  // (one per thread, not zeroed per item)
       walk_packed(w, i, true, OneLane{}, sc);
     });
     return true;

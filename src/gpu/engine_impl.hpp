@@ -345,6 +345,7 @@ class Engine final : public DeviceEngine {
     if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
     if (own_sphere_)
       r += use_entry_kernels() ? "; BIODEM_GPU_OWN_SPHERE=1 unused (no row walk)"
+           : walk_pack_ ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the walks sharing their touching contacts load both spheres per entry)"
            : walk_kick() && !single_spheres_
                ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the clumps' walk with the body update loads both spheres per entry)"
                : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";

@@ -1591,7 +1591,8 @@ struct PackedWalkScratch {
 /// which is its walk order: the same contacts added in the same order with the same operations
 /// as the walk by one thread, so the same bits. Every lane of the group calls it (`valid` false
 /// for a lane past the items); a lane's walk writes only its own entries, wall slots and
-/// sphere, so which lane evaluates a contact changes nothing.
+/// sphere, so which lane evaluates a contact changes nothing. Groups of at most
+/// PackedWalkScratch::kLanes (32) lanes: the queue holds fewer than twice the lanes.
 template <class W, class Group, class Head>
 BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, const Group& grp,
                                   PackedWalkScratch<Head>& sc) {
@@ -1614,19 +1615,21 @@ BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, co
     grp.sync();  // (the results before their owners read them)
     for (std::uint32_t m = mine; m; m &= m - 1u) sums.add(sc.result[lowest_bit(m)]);
     const std::uint32_t rest = queued - count;  // (< lanes: no lane reads a slot another writes)
-    WalkStart o{};
-    std::uint32_t v = 0;
-    Head h{};
-    if (lane < rest) {
-      o = sc.owner[count + lane];
-      v = sc.v[count + lane];
-      h = sc.head[count + lane];
-    }
-    grp.sync();  // (every read of this round before the moves and the next round's writes)
-    if (lane < rest) {
-      sc.owner[lane] = o;
-      sc.v[lane] = v;
-      sc.head[lane] = h;
+    if (rest) {  // (the same for every lane; with none left, the next writes go to slots read before the second sync)
+      WalkStart o{};
+      std::uint32_t v = 0;
+      Head h{};
+      if (lane < rest) {
+        o = sc.owner[count + lane];
+        v = sc.v[count + lane];
+        h = sc.head[count + lane];
+      }
+      grp.sync();  // (every read of this round before the moves and the next round's writes)
+      if (lane < rest) {
+        sc.owner[lane] = o;
+        sc.v[lane] = v;
+        sc.head[lane] = h;
+      }
     }
     mine = mine_next;
     mine_next = 0;
