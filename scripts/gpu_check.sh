@@ -547,10 +547,10 @@ if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
   # The 40k drum runs the row-walk contact kernel by default (BIODEM_GPU_FORCES=auto picks it
   # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
-  # Then memcheck and racecheck with the entry kernels' sums by the row lanes, on the 40k drum
-  # (SumEntriesWalk) and on the wide-row scene of single spheres (SumEntriesKickDriftWalk, whose
-  # lane 0 finishes the body).
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:sumlanes racecheck:sumlanes memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups synccheck:packedgroups}; do
+  # (memcheck and racecheck with the entry kernels' sums by the row lanes, sumlanes, clean in
+  # leases 7-9 on code unchanged since, are left to GPU_CHECK_SANITIZER_JOBS since 2026-11-27, for
+  # the three runs of the walks sharing their touching contacts.)
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups synccheck:packedgroups}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
