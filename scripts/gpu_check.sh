@@ -45,7 +45,8 @@
 #   6. a scene that forces the device neighbour list to widen its rows (a big sphere among small
 #      beads): widening seen in run.log, two runs byte-identical, the build by one thread per
 #      row, the single-sphere body kernel with its sums by the row lanes, the row walk with
-#      the body update (BIODEM_GPU_WALK_KICK=1; also reading the spheres' records) and the entry kernels over every row entry
+#      the body update (BIODEM_GPU_WALK_KICK=1; also reading the spheres' records, and in one
+#      thread with the warp's touching contacts shared, BIODEM_GPU_WALK_PACK=1) and the entry kernels over every row entry
 #      (BIODEM_GPU_PAIR_LIST=full) byte-identical, CPU engine agreement;
 #   7. bench/run_gpu_bench.sh: us/step of the three bench drums, the CPU engine on all cores
 #      beside it, and the hours for three revolutions.
