@@ -1017,6 +1017,45 @@ struct SpringWalk {
 
 }  // namespace
 
+namespace {
+
+/// Three steps of a walk with the body update in two buffers of the sphere motion, as the engine
+/// runs ForcesKickDriftGroups: step s reads the motion of `fused` (even s) or `other` (odd s),
+/// with fused's body arrays, forces and offsets, and places the spheres in the other buffer;
+/// `step(walk_s, rk)` runs one step from the walk's sphere arrays and the body kernel. Afterwards
+/// the motion (in the second buffer after three steps) is copied into `fused`.
+template <class Step>
+void three_steps_in_two_buffers(MadeUpClumps& fused, MadeUpClumps& other, bool records, const Step& step) {
+  for (int s = 0; s < 3; ++s) {
+    MadeUpClumps& from = s % 2 == 0 ? fused : other;
+    MadeUpClumps& to = s % 2 == 0 ? other : fused;
+    ReduceKickDrift rk = fused.kernel();
+    SphereArrays walk_s = rk.s;
+    walk_s.position = from.sx.data();
+    walk_s.velocity = from.sv.data();
+    walk_s.omega = from.sw.data();
+    walk_s.record = records ? from.rec.data() : nullptr;
+    rk.s.position = to.sx.data();
+    rk.s.velocity = to.sv.data();
+    rk.s.omega = to.sw.data();
+    rk.s.record = records ? to.rec.data() : nullptr;
+    step(walk_s, rk);
+  }
+  fused.sx = other.sx;
+  fused.sv = other.sv;
+  fused.sw = other.sw;
+  fused.rec = other.rec;
+}
+
+/// The spheres' forces, torques and contact counts of a and b: bit-identical?
+bool same_sphere_sums(const MadeUpClumps& a, const MadeUpClumps& b) {
+  const std::size_t n = a.sx.size();
+  return std::memcmp(a.sf.data(), b.sf.data(), n * sizeof(Vec3)) == 0 &&
+         std::memcmp(a.st.data(), b.st.data(), n * sizeof(Vec3)) == 0 && a.scont == b.scont;
+}
+
+}  // namespace
+
 // The clumps' row walk with the body update by a group of lanes per body (WalkKickGroups, what
 // ForcesKickDriftGroups runs on CUDA; the walk here a made-up one) with groups of 1, 2, 4, 8 and
 // 16 thread lanes: bodies of 1 to 11 spheres stepped three times, the walks reading one buffer
@@ -1038,31 +1077,12 @@ TEST(BodyLanes, WalkAndBodyUpdateByGroupsGiveTheBitsOfTheTwoKernels) {
     }
     for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 16u}) {
       MadeUpClumps fused(kBodies, records), other(kBodies, records);  // (other: the second buffer's motion)
-      for (int step = 0; step < 3; ++step) {
-        MadeUpClumps& from = step % 2 == 0 ? fused : other;
-        MadeUpClumps& to = step % 2 == 0 ? other : fused;
-        ReduceKickDrift rk = fused.kernel();  // (the body arrays, forces and offsets: fused's)
-        SphereArrays walk_s = rk.s;
-        walk_s.position = from.sx.data();
-        walk_s.velocity = from.sv.data();
-        walk_s.omega = from.sw.data();
-        walk_s.record = records ? from.rec.data() : nullptr;
-        rk.s.position = to.sx.data();
-        rk.s.velocity = to.sv.data();
-        rk.s.omega = to.sw.data();
-        rk.s.record = records ? to.rec.data() : nullptr;
+      three_steps_in_two_buffers(fused, other, records, [&](const SphereArrays& walk_s, const ReduceKickDrift& rk) {
         const WalkKickGroups<SpringWalk> g{SpringWalk{walk_s, n}, ReduceKickDriftLanes{rk}};
         in_thread_lanes(kBodies, lanes, [&](std::uint32_t k, const ThreadLanes& me) { g.run(k, me); });
-      }
-      // (after three steps the motion is in the second buffer)
-      fused.sx = other.sx;
-      fused.sv = other.sv;
-      fused.sw = other.sw;
-      fused.rec = other.rec;
+      });
       EXPECT_EQ(fused.first_difference(one), "") << lanes << " lanes" << (records ? ", records" : "");
-      const bool same_forces = std::memcmp(fused.sf.data(), one.sf.data(), n * sizeof(Vec3)) == 0 &&
-                               std::memcmp(fused.st.data(), one.st.data(), n * sizeof(Vec3)) == 0 &&
-                               fused.scont == one.scont;
+      const bool same_forces = same_sphere_sums(fused, one);
       EXPECT_TRUE(same_forces) << lanes << " lanes: the spheres' sums";
       std::printf("[measured] clumps' walk with the body update by %u lanes vs the walk then ReduceKickDrift%s: "
                   "%u bodies, %u spheres, 3 steps: %s\n",
@@ -1163,19 +1183,7 @@ TEST(BodyLanes, WalkWithTheWarpsTouchingContactsSharedAndBodyUpdateGiveTheBitsOf
     for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 16u}) {
       MadeUpClumps fused(kBodies, records), other(kBodies, records);  // (other: the second buffer's motion)
       const std::uint32_t per_warp = 32 / lanes, warps = (kBodies + per_warp - 1) / per_warp;
-      for (int step = 0; step < 3; ++step) {
-        MadeUpClumps& from = step % 2 == 0 ? fused : other;
-        MadeUpClumps& to = step % 2 == 0 ? other : fused;
-        ReduceKickDrift rk = fused.kernel();  // (the body arrays, forces and offsets: fused's)
-        SphereArrays walk_s = rk.s;
-        walk_s.position = from.sx.data();
-        walk_s.velocity = from.sv.data();
-        walk_s.omega = from.sw.data();
-        walk_s.record = records ? from.rec.data() : nullptr;
-        rk.s.position = to.sx.data();
-        rk.s.velocity = to.sv.data();
-        rk.s.omega = to.sw.data();
-        rk.s.record = records ? to.rec.data() : nullptr;
+      three_steps_in_two_buffers(fused, other, records, [&](const SphereArrays& walk_s, const ReduceKickDrift& rk) {
         const WalkKickGroups<SpringRowWalk> g{SpringRowWalk{walk_s, n, &wrong}, ReduceKickDriftLanes{rk}};
         // a warp of 32 thread lanes, each group of `lanes` of them a body's
         GroupState warp_state(32);
@@ -1193,16 +1201,9 @@ TEST(BodyLanes, WalkWithTheWarpsTouchingContactsSharedAndBodyUpdateGiveTheBitsOf
             }
           });
         for (auto& th : team) th.join();
-      }
-      // (after three steps the motion is in the second buffer)
-      fused.sx = other.sx;
-      fused.sv = other.sv;
-      fused.sw = other.sw;
-      fused.rec = other.rec;
+      });
       EXPECT_EQ(fused.first_difference(one), "") << lanes << " lanes" << (records ? ", records" : "");
-      const bool same_forces = std::memcmp(fused.sf.data(), one.sf.data(), n * sizeof(Vec3)) == 0 &&
-                               std::memcmp(fused.st.data(), one.st.data(), n * sizeof(Vec3)) == 0 &&
-                               fused.scont == one.scont;
+      const bool same_forces = same_sphere_sums(fused, one);
       EXPECT_TRUE(same_forces) << lanes << " lanes: the spheres' sums";
       std::printf("[measured] clumps' walk sharing the warp's touching contacts, with the body update by %u lanes, vs the "
                   "walk then ReduceKickDrift%s: %u bodies, %u spheres, 3 steps: %s\n",
