@@ -110,9 +110,9 @@ struct System {
   }
   /// Row walks (kernels.hpp, walk_row): here one thread walks each item's row, whether or not
   /// `single` (one thread per item) is asked.
-  /// packed (BIODEM_GPU_WALK_PACK=1): walk_packed with a group of one lane per item, its
-  /// scratch on the thread's stack (the same bits; what the lanes of a warp do together is
-  /// covered by tests/gpu/test_group_lanes.cpp).
+  /// packed (BIODEM_GPU_WALK_PACK=1): walk_packed with a group of one lane per item, one scratch
+  /// per thread (the same bits; what the lanes of a warp do together is covered by
+  /// tests/gpu/test_group_lanes.cpp).
   template <class W>
   static void launch_walks(std::uint32_t n, const W& w, bool /*single*/, bool packed = false) {
     if (packed && run_packed_walks(n, w)) return;
