@@ -193,7 +193,9 @@ echo; cat "$O/lease.log"; echo
 for b in bench bench_fixed bench_entries bench_rows bench_fmad $variant_benches; do [ -f "$O/${b}_results.csv" ] && { echo "== $b"; cat "$O/${b}_results.csv"; }; done
 # (which kernels the default runs picked, and the list builds: run.log of each bench drum)
 for f in "$O"/bench/gpu_*/run.log "$O"/bench_fixed/gpu_*/run.log; do
-  [ -f "$f" ] && { echo "== $(basename "$(dirname "$(dirname "$f")")")/$(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300; }
+  [ -f "$f" ] && { echo "== $(basename "$(dirname "$(dirname "$f")")")/$(basename "$(dirname "$f")")"; grep -h 'GPU contact kernels\|GPU list build\|list builds (one per' "$f" | cut -c1-300
+    # (the timed choice's sets, one per line: name, median, chosen or dropped)
+    grep -h 'GPU contact kernels' "$f" | sed -n 's/.*each set: \[\(.*\)\] (.*/\1/p' | sed 's/; /\n/g' | sed 's/^/   /' | cut -c1-170; }
 done
 [ -f "$O/sweep.txt" ] && { echo "== sweep"; grep -v '^ncu' "$O/sweep.txt" | grep -v '^==PROF==' | cut -c1-120; }
 [ -f "$O/sweep/profile.txt" ] && { echo "== profile (BIODEM_GPU_PROFILE=1)"; cat "$O/sweep/profile.txt"; }

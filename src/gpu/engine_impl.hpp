@@ -34,6 +34,7 @@
 #include "core/error.hpp"
 #include "gpu/device_engine.hpp"
 #include "gpu/kernels.hpp"
+#include "gpu/timed_choice.hpp"
 #include "neighbor/skin.hpp"
 
 namespace biodem::gpu::BIODEM_GPU_NS {
@@ -186,20 +187,23 @@ class Engine final : public DeviceEngine {
         if (*flag) throw Error(std::string(name) + " = '1': this biodem was built without it (-DBIODEM_GPU_NO_RECORD_PATHS)");
 #endif
       }
-    // BIODEM_GPU_WALK_PACK=1: where one thread walks each row (Forces, ForcesKickDrift), the
-    // walks of a warp's spheres share their touching contacts across its lanes (walk_packed).
-    // The same bits either way; off by default until timed on a GPU (docs/gpu.md, section 2).
+    // BIODEM_GPU_WALK_PACK=1|0: where one thread walks each row (Forces, ForcesKickDrift,
+    // ForcesKickDriftGroups), the walks of a warp's spheres share their touching contacts across
+    // its lanes (walk_packed), or not; unset: timed sets of both kinds (the timed choice), not
+    // shared elsewhere. The same bits either way (docs/gpu.md, section 2).
     if (const char* v = std::getenv("BIODEM_GPU_WALK_PACK"); v && *v) {
       if (std::string(v) != "0" && std::string(v) != "1")
         throw Error(std::string("BIODEM_GPU_WALK_PACK = '") + v + "': expected 0 or 1");
-      walk_pack_ = std::string(v) == "1";
+      walk_pack_mode_ = std::string(v) == "1" ? WalkPack::on : WalkPack::off;
     }
     // BIODEM_GPU_BODY_LANES=1|2|4|8|16|32|auto: in scenes of clumps, the fused body kernel by one
-    // thread per body (ReduceKickDrift, the default until timed on a GPU) or by a group of that
-    // many lanes (ReduceKickDriftLanes; auto: the most spheres of a body, rounded up to a power
-    // of two, at most 32). On CPU threads always one lane. The same bits either way.
+    // thread per body (ReduceKickDrift) or by a group of that many lanes (ReduceKickDriftLanes;
+    // auto: the most spheres of a body, rounded up to a power of two, at most 32). Unset: timed
+    // sets of both kinds (the timed choice, with the lanes of auto), one thread elsewhere. On CPU
+    // threads always one lane. The same bits either way.
     if (const char* bl = std::getenv("BIODEM_GPU_BODY_LANES"); bl && *bl) {
       const std::string v(bl);
+      body_lanes_forced_ = true;
       if (v == "auto") {
         body_lanes_auto_ = true;
       } else {
@@ -345,24 +349,26 @@ class Engine final : public DeviceEngine {
     if (records_) r += "; each sphere read from its record (BIODEM_GPU_RECORDS=1)";
     if (own_sphere_)
       r += use_entry_kernels() ? "; BIODEM_GPU_OWN_SPHERE=1 unused (no row walk)"
-           : walk_pack_ ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the walks sharing their touching contacts load both spheres per entry)"
+           : walk_pack() ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the walks sharing their touching contacts load both spheres per entry)"
            : walk_kick() && !single_spheres_
                ? "; BIODEM_GPU_OWN_SPHERE=1 unused (the clumps' walk with the body update loads both spheres per entry)"
                : "; the row walk, where one thread walks a row, holds its own sphere (BIODEM_GPU_OWN_SPHERE=1)";
-    if (walk_pack_)
-      r += use_entry_kernels() || fixed_sums_ ? "; BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)"
-           : "; where one thread walks a row, the walks of a warp share their touching contacts across its lanes "
-             "(BIODEM_GPU_WALK_PACK=1; on CPU threads one lane)";
+    if (walk_pack_mode_ == WalkPack::on && (use_entry_kernels() || fixed_sums_))
+      r += "; BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)";
+    else if (walk_pack())
+      r += std::string("; where one thread walks a row, the walks of a warp share their touching contacts across its lanes (") +
+           (walk_pack_mode_ == WalkPack::on ? "BIODEM_GPU_WALK_PACK=1" : "the timed choice") + "; on CPU threads one lane)";
     if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
       r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
-    if (body_lanes_log2_ && !single_spheres_ && fixed_sums_)
+    if (body_lanes() && fixed_sums_)
       r += "; BIODEM_GPU_BODY_LANES unused (the order-free family has its own body kernel)";
-    else if (body_lanes_log2_ && !single_spheres_ && walk_kick())
+    else if (body_lanes() && walk_kick())
       r += "; BIODEM_GPU_BODY_LANES unused (the walk with the body update has its own groups of lanes)";
-    else if (body_lanes_log2_ && !single_spheres_)
-      r += "; the clumps' body kernel between list checks by " + std::to_string(1u << body_lanes_log2_) +
-           " lanes per body (BIODEM_GPU_BODY_LANES" +
-           (body_lanes_auto_ ? "=auto" : "") + "; on CPU threads one)";
+    else if (body_lanes())
+      r += "; the clumps' body kernel between list checks by " + std::to_string(1u << body_lanes()) + " lanes per body (" +
+           (body_lanes_forced_ ? std::string("BIODEM_GPU_BODY_LANES") + (body_lanes_auto_ ? "=auto" : "")
+                               : std::string("the timed choice")) +
+           "; on CPU threads one)";
     return r;
   }
   std::string contact_set(const std::string& set) const {
@@ -380,28 +386,41 @@ class Engine final : public DeviceEngine {
       return set + ", by the sphere count (" + (use_entry_kernels() ? "below " : "at least ") +
              std::to_string(kEntryForcesBelow) + ")";
     if (tuning_under_way())
-      return set + " for now: the timing of the sets is under way (" + std::to_string(tuning_.choices) +
+      return set + " for now: the timing of the sets is under way (" + std::to_string(choices_) +
              " choice(s) in the run so far)";
-    const double walk = std::min({tuning_.median[1], tuning_.median[2], tuning_.median[4]});
-    const bool groups = walk_kick() && !single_spheres_;  // (the set names its groups of lanes)
-    // (sets 4, and 1 in single-sphere scenes, update the bodies in the walk unless switched off)
-    const bool kick_sets = walk_kick_fits() && walk_kick_mode_ != WalkKick::off;
-    return set + (use_entry_kernels() || groups ? std::string() : walk_single() ? " in one thread per sphere" : " with " + System::walk_lanes()) +
-           ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps) +
-           " steps (median of " + std::to_string(kTuneIntervals / kTuneSets) +
-           " runs each): per-contact " + us(tuning_.median[0]) + " us/step, row walk " + us(walk) + " us/step (" +
-           System::walk_lanes() + (single_spheres_ && kick_sets ? " with the body update" : "") + ": " + us(tuning_.median[1]) +
-           ", one thread per sphere: " + us(tuning_.median[2]) +
-           "), per-contact with the sums by the row lanes " + us(tuning_.median[3]) + " us/step, row walk " +
-           (!kick_sets ? std::string("in one thread, again")
-            : single_spheres_ ? std::string("in one thread with the body update")
-                              : "in groups of " + std::to_string(1u << walk_kick_lanes_log2_) +
-                                    " lanes per body with the body update") +
-           " " + us(tuning_.median[4]) +
-           (walk_kick_fits() ? (kick_sets ? " us/step (" : " us/step (BIODEM_GPU_WALK_KICK=0; ")
-                             : " us/step (as one thread: a body of more than 32 spheres; ") +
-           std::to_string(tuning_.choices) + " choice(s) in the run: after each upload, at each phase start and every " +
+    const auto& sets = tuning_.sets();
+    char keep[16];
+    std::snprintf(keep, sizeof keep, "%.2f", TimedChoice::kKeepWithin);
+    double entries = std::numeric_limits<double>::infinity(), walk = entries;
+    std::string each;
+    for (std::size_t k = 0; k < sets.size(); ++k) {
+      const double t = tuning_.median(k);
+      if (!(t >= 0.0)) continue;  // (not timed)
+      (sets[k].entries ? entries : walk) = std::min(sets[k].entries ? entries : walk, t);
+      each += std::string(each.empty() ? "" : "; ") + set_name(sets[k]) + ": " + us(t) + " us/step" +
+              (k == tuning_.choice() ? " (chosen)"
+               : !tuning_.kept(k) ? " (dropped after one run)"
+                                  : "");
+    }
+    auto us_or_none = [&us](double t) { return std::isfinite(t) ? us(t) + " us/step" : std::string("none"); };
+    return set + (use_entry_kernels() ? std::string() : ", " + set_name(tuned_set())) +
+           ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps()) +
+           " steps (median of up to " + std::to_string(TimedChoice::kRounds) + " runs each; a set above " + keep +
+           " times the first round's fastest dropped after its run in it): per-contact " + us_or_none(entries) + ", row walk " + us_or_none(walk) + "; each set: [" + each +
+           "] (" + std::to_string(choices_) + " choice(s) in the run: after each upload, at each phase start and every " +
            std::to_string(retime_every_) + " steps)";
+  }
+  /// A set of the timed choice as run.log names it.
+  std::string set_name(const KernelSet& k) const {
+    if (k.entries) return std::string("per-contact") + (k.sum_lanes ? " with the sums by the " + System::walk_lanes() : "");
+    std::string r = std::string("row walk ") + (k.single ? "in one thread per sphere" : "with " + System::walk_lanes());
+    if (k.kick)
+      r += single_spheres_ ? " with the body update"
+                           : " with the body update in groups of " + std::to_string(1u << walk_kick_lanes_log2_) +
+                                 " lanes per body";
+    if (k.pack) r += ", touching contacts shared across the warp";
+    if (k.body_lanes) r += ", the body kernel by " + std::to_string(1u << body_lanes_auto_log2_) + " lanes per body";
+    return r;
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
     std::vector<std::uint32_t> j, len, host;  // (host sphere indices)
@@ -541,10 +560,8 @@ class Engine final : public DeviceEngine {
   /// Row walks (Forces) over n items (System::launch_walks).
   template <class W>
   void launch_walks(std::uint32_t n, const W& w) {
-    if (n) System::launch_walks(n, w, walk_single(), walk_pack_);
+    if (n) System::launch_walks(n, w, walk_single(), walk_pack());
   }
-  /// BIODEM_GPU_WALK_PACK=1 (System::launch_walks: only where one thread walks each row).
-  bool walk_pack_ = false;
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
   /// before it queued on the device one step before their end (no wait).
@@ -669,53 +686,69 @@ class Engine final : public DeviceEngine {
   bool fuse_ = true;                // ReduceKickDrift between list checks outside criterion phases
   enum class ForcesMode { automatic, entries, rows, timed };
   ForcesMode forces_mode_ = ForcesMode::automatic;
-  /// The choice of the contact kernels by timing (BIODEM_GPU_FORCES=timed, and auto on a GPU):
-  /// after each upload the first kTuneIntervals runs of steps between list checks cycle through
-  /// four sets, each run timed on the device (System::Timer): the entry kernels, the row walk
-  /// shared by the row lanes (System::launch_walks, BIODEM_GPU_ROW_LANES), the row walk in one
-  /// thread per sphere, and the entry kernels with their sums shared by the row lanes
-  /// (SumEntriesWalk, SumEntriesKickDriftWalk); then the set with the lowest median time per
-  /// step runs until the next upload (the median, so that one run slowed by something else does
-  /// not decide). All give the
-  /// same bits, so the choice changes no result. (On CPU threads both walks are the same code.)
-  /// The sets are timed again at the start of each phase (retime_kernels) and after every
-  /// kRetimeSteps steps of the chosen set (set_retime_every): the first timing after an upload sees the bed as
-  /// inserted (few contacts), where the sets' order can differ from that of a bed at rest (H100,
-  /// glass_small: the row walk in one thread and the entry kernels within 1 % over the first 160
-  /// steps, 25 and 18 us/step at rest). A timing costs about 160 steps of the slower sets.
-  static constexpr std::uint32_t kTuneSets = 5;  // [0] entries, [1] walk with the row lanes (single spheres: with
-                                                 // the body update, ForcesKickDrift), [2] walk, one thread,
-                                                 // [3] entries with the sums by the row lanes, [4] walk, one
-                                                 // thread per sphere, with the body update (single spheres:
-                                                 // ForcesKickDrift; clumps: ForcesKickDriftGroups; else as [2])
-  static constexpr std::uint32_t kTuneIntervals = 4 * kTuneSets;
+  /// The choice of the contact kernels by timing (BIODEM_GPU_FORCES=timed, and auto on a GPU;
+  /// the rules in timed_choice.hpp): after each upload the runs of steps between list checks
+  /// go through the candidate sets of the scene (candidate_sets), each run timed on the device
+  /// (System::Timer); a set more than 1.25 times as slow as the fastest in the first round is
+  /// dropped, the others are timed in three more rounds, and the one with the lowest median time
+  /// per step runs on. All give the same bits, so the choice changes no result. (On CPU threads
+  /// the walks with the row lanes and in one thread are the same code, and packed walks run as
+  /// a group of one lane.) The sets are timed again at the start of each phase (retime_kernels)
+  /// and after every kRetimeSteps steps of the chosen set (set_retime_every): the first timing
+  /// after an upload sees the bed as inserted (few contacts), where the sets' order can differ
+  /// from that of a bed at rest (H100, glass_small: the row walk in one thread and the entry
+  /// kernels within 1 % over the first 160 steps, 25 and 18 us/step at rest).
   static constexpr std::uint64_t kRetimeSteps = 20000;
   std::uint64_t retime_every_ = kRetimeSteps;
-  struct Tuning {
-    std::uint32_t intervals = 0;                // timed so far since the upload
-    double per_step[kTuneIntervals] = {};       // seconds per step of each (set: interval % kTuneSets)
-    std::uint64_t steps = 0;
-    double median[kTuneSets] = {};               // per set, once all are timed
-    std::uint32_t choice = 0;                    // the set chosen, once all are timed
-    std::uint32_t choices = 0;                   // choices made in the run so far
-    std::uint64_t since_choice = 0;              // steps run with the set chosen
-  } tuning_;
+  TimedChoice tuning_;
+  std::uint32_t choices_ = 0;       // choices made in the run so far
+  std::uint64_t since_choice_ = 0;  // steps run with the set chosen
+  /// The sets the timed choice tries in this scene, in the order it tries them (first the
+  /// per-contact kernels, then the row walks), each switch forced by its environment variable
+  /// leaving only its own value:
+  /// - per-contact, with the sums in one thread per sphere and by the row lanes (SUM_LANES);
+  /// - the row walk by the row lanes (in single-sphere scenes with the body update: ForcesKickDrift);
+  /// - the row walk in one thread per sphere, apart from the body update and with it (WALK_KICK;
+  ///   single spheres: ForcesKickDrift, clumps of up to 32 spheres: ForcesKickDriftGroups), each
+  ///   with and without the warp's touching contacts shared (WALK_PACK); in scenes of clumps the
+  ///   walks apart also with the body kernel by lanes (BODY_LANES).
+  /// The order-free family: per-contact, the row lanes, one thread (it has no other).
+  std::vector<KernelSet> candidate_sets() const {
+    std::vector<KernelSet> v;
+    for (const bool sl : {false, true}) {
+      if (sl && fixed_sums_) continue;
+      if (sum_lanes_mode_ != SumLanes::automatic && sl != (sum_lanes_mode_ == SumLanes::on)) continue;
+      v.push_back(KernelSet{.entries = true, .sum_lanes = sl});
+    }
+    const bool kick_free = !fixed_sums_ && walk_kick_fits() && walk_kick_mode_ == WalkKick::automatic;
+    v.push_back(KernelSet{.kick = kick_free && single_spheres_});
+    for (const bool kick : {false, true}) {
+      if (kick && !kick_free) continue;
+      for (const bool pack : {false, true}) {
+        if (pack && (fixed_sums_ || walk_pack_mode_ != WalkPack::automatic)) continue;
+        for (const bool bl : {false, true}) {
+          if (bl && (kick || single_spheres_ || fixed_sums_ || body_lanes_forced_)) continue;
+          v.push_back(KernelSet{.single = true, .kick = kick, .pack = pack, .body_lanes = bl});
+        }
+      }
+    }
+    return v;
+  }
   /// The sets are timed from the next run of steps on; with `size_buffers`, the entry kernels'
   /// buffers are made to fit the rows now (a list build enlarges them only while they are in
   /// use or timed; upload's own build does it for the new scene).
   void restart_tuning(bool size_buffers = true) {
-    const std::uint32_t choices = tuning_.choices;
-    tuning_ = Tuning{};
-    tuning_.choices = choices;
+    tuning_.start(candidate_sets());
+    since_choice_ = 0;
     if (size_buffers && timed_choice() && rows_.length.size() == ns()) ensure_entry_buffers();
   }
   typename System::Timer timer_;
   bool timed_choice() const {
     return forces_mode_ == ForcesMode::timed || (forces_mode_ == ForcesMode::automatic && System::kTimedChoice);
   }
-  bool tuning_under_way() const { return timed_choice() && tuning_.intervals < kTuneIntervals; }
+  bool tuning_under_way() const { return timed_choice() && tuning_.under_way(); }
   /// The set of the timed choice that runs now (under way: the one being timed).
-  std::uint32_t tuned_set() const { return tuning_under_way() ? tuning_.intervals % kTuneSets : tuning_.choice; }
+  const KernelSet& tuned_set() const { return tuning_.current_set(); }
   /// PairEntries + SumEntries instead of Forces.
   bool use_entry_kernels() const {
     switch (forces_mode_) {
@@ -724,24 +757,21 @@ class Engine final : public DeviceEngine {
       default: break;
     }
     if (!timed_choice()) return ns() < kEntryForcesBelow;
-    return tuned_set() == 0 || tuned_set() == 3;
+    return tuned_set().entries;
   }
   /// The row walk in one thread per sphere instead of the row lanes (the timed choice only).
-  bool walk_single() const {
-    return timed_choice() && !use_entry_kernels() && (tuned_set() == 2 || tuned_set() == 4);
-  }
+  bool walk_single() const { return timed_choice() && !use_entry_kernels() && tuned_set().single; }
   /// The row walk fused with the body update (single-sphere scenes: ForcesKickDrift; clumps of up
-  /// to 32 spheres: ForcesKickDriftGroups; BIODEM_GPU_WALK_KICK; the timed choice's fifth set,
-  /// and in single-sphere scenes its second, the walk with the row lanes, too), in the fused
-  /// units of a row walk.
+  /// to 32 spheres: ForcesKickDriftGroups; BIODEM_GPU_WALK_KICK; the timed choice's sets with
+  /// `kick`: in single-sphere scenes the walk with the row lanes too), in the fused units of a
+  /// row walk.
   enum class WalkKick { automatic, off, on };
   WalkKick walk_kick_mode_ = WalkKick::automatic;
   bool walk_kick() const {
     if (entries_ready() || fixed_sums_) return false;  // (the order-free family has none)
     if (!walk_kick_fits()) return false;
     if (walk_kick_mode_ != WalkKick::automatic) return walk_kick_mode_ == WalkKick::on;
-    // (in single-sphere scenes the walk with the row lanes, set 1, updates the body too)
-    return timed_choice() && (tuned_set() == 4 || (tuned_set() == 1 && single_spheres_));
+    return timed_choice() && tuned_set().kick;
   }
   std::uint64_t walk_kick_units_ = 0;
   // In scenes of clumps, ForcesKickDriftGroups' lanes per body (log2; upload: the most spheres
@@ -753,9 +783,25 @@ class Engine final : public DeviceEngine {
   // The spheres' records (BIODEM_GPU_RECORDS=1; SphereRecord), and those of the second buffer.
   bool records_ = false, own_sphere_ = false;
   // The fused body kernel's lanes per body in scenes of clumps (BIODEM_GPU_BODY_LANES; log2; 0:
-  // one thread per body); auto: set at upload from the most spheres of a body.
-  std::uint32_t body_lanes_log2_ = 0;
-  bool body_lanes_auto_ = false;
+  // one thread per body); auto: set at upload from the most spheres of a body. Unset: the timed
+  // choice's sets with `body_lanes` use the lanes of auto, the rest (and every other choice) one
+  // thread per body.
+  std::uint32_t body_lanes_log2_ = 0, body_lanes_auto_log2_ = 0;
+  bool body_lanes_auto_ = false, body_lanes_forced_ = false;
+  /// The lanes per body (log2) of the fused body kernel now (0: ReduceKickDrift in one thread).
+  std::uint32_t body_lanes() const {
+    if (single_spheres_) return 0;
+    if (body_lanes_forced_) return body_lanes_log2_;
+    return timed_choice() && !use_entry_kernels() && tuned_set().body_lanes ? body_lanes_auto_log2_ : 0;
+  }
+  /// The warp's row walks in one thread sharing their touching contacts (BIODEM_GPU_WALK_PACK=1,
+  /// or the timed choice's sets with `pack`).
+  enum class WalkPack { automatic, off, on };
+  WalkPack walk_pack_mode_ = WalkPack::automatic;
+  bool walk_pack() const {
+    if (walk_pack_mode_ != WalkPack::automatic) return walk_pack_mode_ == WalkPack::on;
+    return timed_choice() && !use_entry_kernels() && tuned_set().pack;
+  }
   vec<SphereRecord> s_rec_, s_rec2_;
   /// The records filled from the arrays (upload, after a sort): both buffers' (the second's
   /// motion is written before it is read; its radii, masses and materials are these).
@@ -765,12 +811,12 @@ class Engine final : public DeviceEngine {
     if (s_rec2_.size() == ns()) launch(ns(), PackRecords{sphere_arrays(), raw<SphereRecord>(s_rec2_)});
   }
   /// The entry kernels' per-sphere sums by the row lanes (BIODEM_GPU_SUM_LANES; the timed
-  /// choice's fourth set).
+  /// choice's sets with `sum_lanes`).
   enum class SumLanes { automatic, off, on };
   SumLanes sum_lanes_mode_ = SumLanes::automatic;
   bool sum_lanes() const {
     if (sum_lanes_mode_ != SumLanes::automatic) return sum_lanes_mode_ == SumLanes::on;
-    return timed_choice() && use_entry_kernels() && tuned_set() == 3;
+    return timed_choice() && use_entry_kernels() && tuned_set().sum_lanes;
   }
   std::uint64_t entry_passes_ = 0;  // steps whose forces the entry kernels evaluated
   /// The pair list of the per-contact passes (ContactArgs::PairList; BIODEM_GPU_PAIR_LIST):
@@ -988,7 +1034,6 @@ inline void Engine::upload() {
   mirror_missing_[0] = 0u;
   motion_queued_ = false;  // (of the state before the upload)
   settle_queued_ = false;
-  restart_tuning(false);  // (the list build below sizes the entry buffers for the new scene)
   // (SumEntriesKickDrift takes body k's sphere to be sphere k)
   single_spheres_ = true;
   for (std::size_t k = 0; k < b.size(); ++k)
@@ -1001,8 +1046,12 @@ inline void Engine::upload() {
     for (std::uint32_t c : b.sphere_count) most = std::max(most, c);
     walk_kick_lanes_log2_ = 0;
     while (walk_kick_lanes_log2_ < 6 && (1u << walk_kick_lanes_log2_) < most) ++walk_kick_lanes_log2_;
-    if (body_lanes_auto_) body_lanes_log2_ = std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u);
+    body_lanes_auto_log2_ = std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u);
+    if (body_lanes_auto_) body_lanes_log2_ = body_lanes_auto_log2_;
   }
+  // (the candidate sets depend on the scene above; the list build below sizes the entry
+  // buffers for the new scene)
+  restart_tuning(false);
 
   const std::size_t n = s.size();
   // Stable sphere ids: spheres numbered body by body in stable body id order.
@@ -1517,8 +1566,8 @@ inline void Engine::fused_unit(bool from_second) {
     return;
   }
   compute_forces(halt());
-  if (body_lanes_log2_ && !single_spheres_) {
-    if (nb()) System::launch_groups(nb(), ReduceKickDriftLanes{rkd}, body_lanes_log2_);
+  if (const std::uint32_t lanes_log2 = body_lanes()) {
+    if (nb()) System::launch_groups(nb(), ReduceKickDriftLanes{rkd}, lanes_log2);
   } else {
     launch(nb(), rkd);
   }
@@ -1555,7 +1604,7 @@ void Engine::launch_walk_kicks(const ContactArgs& c, const ReduceKickDrift& rkd)
     ForcesKickDriftGroups<Cohesion, Rolling> g;
     static_cast<ContactArgs&>(g.walk) = c;
     g.out = ReduceKickDriftLanes{rkd};
-    if (nb() && walk_pack_) System::launch_groups_packed(nb(), g, walk_kick_lanes_log2_);
+    if (nb() && walk_pack()) System::launch_groups_packed(nb(), g, walk_kick_lanes_log2_);
     else if (nb()) System::launch_groups(nb(), g, walk_kick_lanes_log2_);
     return;
   }
@@ -1619,7 +1668,8 @@ inline void Engine::run_units(std::uint32_t units) {
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
-  const std::uint64_t key = (rows_.generation << 16) | (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
+  const std::uint64_t key = (rows_.generation << 20) | (walk_pack() ? 1u << 16 : 0u) | (body_lanes() ? 1u << 17 : 0u) |
+                            (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
                             (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
                             (two_buffers ? 1u << 14 : 0u) | (fixed_sums_ ? 1u << 15 : 0u) |
                             (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
@@ -1640,25 +1690,13 @@ inline void Engine::run_units(std::uint32_t units) {
   motion_drifts_ = drifts_ + units - 1;
   drifts_ += units;
   if (timing) {
-    tuning_.per_step[tuning_.intervals++] = timer_.stop() / units;
-    tuning_.steps += units;
-    if (tuning_.intervals == kTuneIntervals) {
-      for (std::uint32_t set = 0; set < kTuneSets; ++set) {  // set s ran the runs r with r % kTuneSets == s
-        std::vector<double> t;
-        for (std::uint32_t r = set; r < kTuneIntervals; r += kTuneSets) t.push_back(tuning_.per_step[r]);
-        std::sort(t.begin(), t.end());
-        tuning_.median[set] = t.size() % 2 ? t[t.size() / 2] : 0.5 * (t[t.size() / 2 - 1] + t[t.size() / 2]);
-      }
-      tuning_.choice = 0;  // ties: the entry kernels, then the row lanes
-      for (std::uint32_t set = 1; set < kTuneSets; ++set)
-        if (tuning_.median[set] < tuning_.median[tuning_.choice]) tuning_.choice = set;
-      ++tuning_.choices;
-    }
+    tuning_.record(timer_.stop() / units, units);
+    if (!tuning_.under_way()) ++choices_;
     // The row walk reads both entries of a pair: after entry steps, hand it the history.
     if (entries && !entries_ready()) mirror_history();
   } else if (timed_choice()) {
-    tuning_.since_choice += units;
-    if (tuning_.since_choice >= retime_every_) restart_tuning();
+    since_choice_ += units;
+    if (since_choice_ >= retime_every_) restart_tuning();
   }
 }
 
