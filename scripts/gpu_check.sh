@@ -342,8 +342,14 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
     why=$(variant_same "$OUT/needles_rows" "needles_packed_groups_block$block" BIODEM_GPU_FORCES=rows \
           BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_BLOCK=$block) ||
       { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1, blocks of $block: $why"; }
+    # (each walk shared by 2 and by 4 lanes of the warp: BIODEM_GPU_PACK_SPLIT)
+    for split in 2 4; do
+      why=$(variant_same "$OUT/needles_rows" "needles_packed_split${split}_block$block" BIODEM_GPU_FORCES=rows \
+            BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=$split BIODEM_GPU_BLOCK=$block) ||
+        { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=$split, blocks of $block: $why"; }
+    done
   done
-  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts (one thread per row, and the clumps' groups with the body update) x blocks of 32, 512 byte-identical"
+  [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts (one thread per row, by 2 and 4 lanes per row (BIODEM_GPU_PACK_SPLIT), and the clumps' groups with the body update) x blocks of 32, 512 byte-identical"
 fi
 [ $lanes_ok = 1 ] && record "3i. kernel sets and row-walk lanes" PASS "$lanes_detail" || record "3i. kernel sets and row-walk lanes" FAIL "$lanes_detail"
 # 3j. The list build by one thread per sphere (BIODEM_GPU_BUILD_LANES=1, BuildRows) gives the
@@ -507,6 +513,8 @@ BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_
 # (the walk in one thread with the body update sharing the warp's touching contacts, reading
 # the records: the packed ForcesKickDrift and the records' centre loads of its tests)
 BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_WALK_PACK=1 run_biodem wide_walk_kick_packed "$wide" "$OUT/wide_walk_kick_packed" --device "$DEVICE"; wp=$?
+# (the same by 2 lanes per sphere: BIODEM_GPU_PACK_SPLIT; on CPU threads one lane, as above)
+BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=2 run_biodem wide_walk_kick_split "$wide" "$OUT/wide_walk_kick_split" --device "$DEVICE"; ws=$?
 # (the entry kernels over every row entry and wall slot, against the pair and wall-slot lists,
 # across the widenings)
 BIODEM_GPU_FORCES=entries BIODEM_GPU_PAIR_LIST=full run_biodem wide_full_pass "$wide" "$OUT/wide_full_pass" --device "$DEVICE"; wf=$?
@@ -536,6 +544,9 @@ else
   elif ! grep -q 'ForcesKickDrift.*BIODEM_GPU_WALK_PACK=1;' "$OUT/wide_walk_kick_packed/run.log"; then ok=0; detail="$detail; BIODEM_GPU_WALK_PACK=1 with the body update not reported in run.log"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_packed"); then detail="$detail; the walk with the body update sharing the warp's touching contacts, records (BIODEM_GPU_WALK_PACK=1, BIODEM_GPU_RECORDS=1) byte-identical"
   else ok=0; detail="$detail; the packed walk with the body update differs: $(echo $diff)"; fi
+  if [ $ws -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PACK_SPLIT=2 failed"
+  elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_split"); then detail="$detail; the same by 2 lanes per sphere (BIODEM_GPU_PACK_SPLIT=2) byte-identical"
+  else ok=0; detail="$detail; the packed walk with the body update by 2 lanes per sphere differs: $(echo $diff)"; fi
   if [ $wf -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PAIR_LIST=full failed"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_full_pass"); then detail="$detail; entry kernels over every entry (BIODEM_GPU_PAIR_LIST=full) byte-identical"
   else ok=0; detail="$detail; entry kernels over every entry differ: $(echo $diff)"; fi
@@ -569,6 +580,8 @@ if [ "$DEVICE" = gpu ]; then
       fixed) what=", order-free family (fixed-point sums by atomic additions)"; envs=(BIODEM_GPU_SUMS=fixed) ;;
       packed) what=", one-thread walks sharing their touching contacts across a warp (shared memory)"
               envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1) ;;
+      packedsplit) what=", one-thread walks sharing their touching contacts across a warp, 2 lanes per row"
+                   envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=2) ;;
       packedgroups) what=", the clumps' walk with the body update by groups, sharing the warp's touching contacts"
                     envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1) ;;
       records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"

@@ -68,6 +68,9 @@ if [ "${1:-}" = --prepare ]; then  # on the Debian machine, with CUDA and script
   cp -a build-gpu devcarry/
   rm -rf devcarry/build-gpu/vendor_googletest devcarry/build-gpu/CMakeFiles devcarry/build-gpu/tests/out_* devcarry/build-gpu/tests/CMakeFiles
   find devcarry/build-gpu \( -name '*.o' -o -name '*.a' \) -delete
+  # (biodem-full only runs video and calibrate, which nothing on the GPU machine runs: 12 MB of
+  # the 64 MB a call may carry)
+  rm -f devcarry/build-gpu/biodem-full
   for lib in $(ldd build-gpu/biodem | awk '/cudart|gomp|stdc\+\+/ {print $3}'); do cp -L "$lib" devcarry/lib/; done
   echo "$root" > devcarry/source_dir
   du -sh devcarry

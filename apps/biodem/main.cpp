@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,21 @@ int main(int argc, char** argv) {
   add(biodem::cli::register_video);
   add(biodem::cli::register_calibrate);
 
+  // A first word that is no command and no option: name it (CLI11 would say only that a
+  // sub-command is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const auto& [sub, action] : actions) {
+      known = known || sub->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      std::cerr << "biodem: error: unknown command '" << argv[1] << "' (expected one of " << names
+                << "; see biodem --help)\n";
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -36,6 +36,13 @@ void CaseParser::check_something_to_simulate() const {
 }
 
 void CaseParser::check_unused() {
+  // (SPEC 11's case: the snapshot and checkpoint keys are optional only in explicit scenes; a
+  // drum case without them runs, but says what it will not write)
+  if (cfg_.drum && cfg_.insertion && !cfg_.output.checkpoint_every_s)
+    warn("[output].checkpoint_every_s is not given: no checkpoints (only SIGINT or SIGTERM write one), so a run "
+         "killed otherwise cannot be resumed");
+  if (cfg_.drum && cfg_.insertion && !cfg_.output.snapshot_every_s)
+    warn("[output].snapshot_every_s is not given: snapshots only after the insertion and at the end");
   std::set<std::size_t> used;
   for (const auto& p : cfg_.populations) used.insert(p.shape);
   for (const auto& p : cfg_.particles) used.insert(p.shape);

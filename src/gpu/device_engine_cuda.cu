@@ -561,7 +561,7 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
 /// Row walks with the touching contacts shared by a warp's lanes (walk_packed; defined after the
 /// kernels, below): launched when W is such a walker (kernels.hpp, WalksPacked); false if not.
 template <class W>
-bool launch_packed_walks(std::uint32_t n, const W& w);
+bool launch_packed_walks(std::uint32_t n, const W& w, std::uint32_t split_log2);
 
 /// Groups of lanes per item whose row walks share a warp's touching contacts
 /// (WalkKickGroups::run_packed; defined after the kernels, below).
@@ -619,10 +619,12 @@ struct System {
   /// (for_each_walk), or one thread per item when BIODEM_GPU_ROW_LANES=1; no host wait.
   /// packed: where one thread would walk each row, the walks of a warp share their touching
   /// contacts (walk_packed, for_each_packed_walk; BIODEM_GPU_WALK_PACK=1).
+  /// split_log2: with `packed`, 2^split_log2 lanes of the warp share each item's walk
+  /// (walk_packed; BIODEM_GPU_PACK_SPLIT).
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w, bool single, bool packed = false) {
+  static void launch_walks(std::uint32_t n, const W& w, bool single, bool packed = false, std::uint32_t split_log2 = 0) {
     const std::uint32_t log2 = single ? 0u : row_lanes_log2();
-    if (log2 == 0 && packed && launch_packed_walks(n, w)) return;
+    if (log2 == 0 && packed && launch_packed_walks(n, w, split_log2)) return;
     if (log2 == 0) {
       launch(n, w);
       return;
@@ -781,25 +783,32 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_walk(std::uint3
   walk_row_lanes(w, item, WarpGroup::of_thread(lanes_log2));
 }
 
-template <class W>
-__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_packed_walk(std::uint32_t n, W w);
+template <bool Split, class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_packed_walk(std::uint32_t n, W w, std::uint32_t split_log2);
 
 template <class W>
-bool launch_packed_walks(std::uint32_t n, const W& w) {
+bool launch_packed_walks(std::uint32_t n, const W& w, std::uint32_t split_log2) {
   if constexpr (!WalksPacked<W>::value) {
     (void)n;
     (void)w;
+    (void)split_log2;
     return false;
   } else {
     // (whole warps: at least 32; at most 256, so that the warps' scratch stays within the 48 KB
     // of shared memory a block may take without asking: 8 x 3,840 bytes)
     const std::uint32_t block = launch_block() < 256u ? launch_block() : 256u;
-    const std::uint64_t blocks = (static_cast<std::uint64_t>(n) + block - 1) / block;
+    const std::uint64_t threads = static_cast<std::uint64_t>(n) << split_log2;
+    const std::uint64_t blocks = (threads + block - 1) / block;
     if (blocks * block > 0xffffffffull)
-      throw Error("GPU engine: a kernel over " + std::to_string(n) + " items exceeds 2^32 threads (32-bit indices)");
+      throw Error("GPU engine: a kernel over " + std::to_string(n) + " items of " + std::to_string(1u << split_log2) +
+                  " lanes exceeds 2^32 threads (32-bit indices)");
     const auto bytes = static_cast<std::uint32_t>((block / 32) * sizeof(PackedWalkScratch<ContactArgs::EntryHead>));
     static_assert(8 * sizeof(PackedWalkScratch<ContactArgs::EntryHead>) <= 48u * 1024u, "a block's scratch within 48 KB");
-    launch_kernel_shared(for_each_packed_walk<W>, static_cast<std::uint32_t>(blocks), block, bytes, n, w);
+    if (split_log2)
+      launch_kernel_shared(for_each_packed_walk<true, W>, static_cast<std::uint32_t>(blocks), block, bytes, n, w, split_log2);
+    else
+      launch_kernel_shared(for_each_packed_walk<false, W>, static_cast<std::uint32_t>(blocks), block, bytes, n, w, 0u);
     check_cuda("a kernel launch");
     return true;
   }
@@ -823,18 +832,20 @@ void launch_packed_groups(std::uint32_t n, const F& f, std::uint32_t lanes_log2)
 }
 
 /// Row walks of whole warps with their touching contacts shared (kernels.hpp, walk_packed): a
-/// warp's lanes walk items 32 w .. 32 w + 31, and lanes past n stay in the warp to take their
-/// share (whole warps past n leave). Each warp's scratch is its part of the block's dynamic
-/// shared memory (System::launch_walks).
-template <class W>
-__global__ void __launch_bounds__(kMostThreadsPerBlock) for_each_packed_walk(std::uint32_t n, W w) {
+/// warp's lanes walk items 32 w .. 32 w + 31 (with split_log2 > 0, 2^split_log2 consecutive
+/// lanes per item: items 32 w / 2^split_log2 onwards), and lanes past n stay in the warp to take
+/// their share (whole warps past n leave). Each warp's scratch is its part of the block's
+/// dynamic shared memory (System::launch_walks).
+template <bool Split, class W>
+__global__ void __launch_bounds__(kMostThreadsPerBlock)
+    for_each_packed_walk(std::uint32_t n, W w, std::uint32_t split_log2) {
   after_previous_kernel();
   extern __shared__ __align__(16) unsigned char packed_walk_shared[];
-  const std::uint32_t item = blockIdx.x * blockDim.x + threadIdx.x;
-  if ((item & ~31u) >= n) return;
+  const std::uint32_t thread = blockIdx.x * blockDim.x + threadIdx.x, item = thread >> split_log2;
+  if (((thread & ~31u) >> split_log2) >= n) return;
   using Scratch = PackedWalkScratch<ContactArgs::EntryHead>;
   Scratch& sc = reinterpret_cast<Scratch*>(packed_walk_shared)[threadIdx.x >> 5];
-  walk_packed(w, item, item < n, WarpGroup::of_thread(5), sc);
+  walk_packed<Split>(w, item, item < n, WarpGroup::of_thread(5), sc, split_log2);
 }
 
 /// Items with a group of 2^lanes_log2 lanes each whose row walks share the warp's touching

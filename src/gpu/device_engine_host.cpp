@@ -113,8 +113,10 @@ struct System {
   /// packed (BIODEM_GPU_WALK_PACK=1): walk_packed with a group of one lane per item, one scratch
   /// per thread (the same bits; what the lanes of a warp do together is covered by
   /// tests/gpu/test_group_lanes.cpp).
+  /// (split_log2, the lanes per item of packed walks on CUDA: here one lane, whatever asked)
   template <class W>
-  static void launch_walks(std::uint32_t n, const W& w, bool /*single*/, bool packed = false) {
+  static void launch_walks(std::uint32_t n, const W& w, bool /*single*/, bool packed = false,
+                           std::uint32_t /*split_log2*/ = 0) {
     if (packed && run_packed_walks(n, w)) return;
     launch(n, w);
   }

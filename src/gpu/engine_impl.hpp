@@ -196,6 +196,16 @@ class Engine final : public DeviceEngine {
         throw Error(std::string("BIODEM_GPU_WALK_PACK = '") + v + "': expected 0 or 1");
       walk_pack_mode_ = std::string(v) == "1" ? WalkPack::on : WalkPack::off;
     }
+    // BIODEM_GPU_PACK_SPLIT=1|2|4: the lanes of a warp that share each sphere's packed walk
+    // (walk_packed's split; on CUDA, not for the clumps' walk with the body update by groups);
+    // unset: the timed choice's packed sets with one and with two. The same bits either way.
+    if (const char* v = std::getenv("BIODEM_GPU_PACK_SPLIT"); v && *v) {
+      const std::string sv(v);
+      if (sv != "1" && sv != "2" && sv != "4")
+        throw Error("BIODEM_GPU_PACK_SPLIT = '" + sv + "': expected 1, 2 or 4 lanes per sphere");
+      pack_split_forced_ = true;
+      pack_split_log2_ = sv == "1" ? 0u : sv == "2" ? 1u : 2u;
+    }
     // BIODEM_GPU_BODY_LANES=1|2|4|8|16|32|auto: in scenes of clumps, the fused body kernel by one
     // thread per body (ReduceKickDrift) or by a group of that many lanes (ReduceKickDriftLanes;
     // auto: the most spheres of a body, rounded up to a power of two, at most 32). Unset: timed
@@ -356,8 +366,12 @@ class Engine final : public DeviceEngine {
     if (walk_pack_mode_ == WalkPack::on && (use_entry_kernels() || fixed_sums_))
       r += "; BIODEM_GPU_WALK_PACK=1 unused (no ordered row walk)";
     else if (walk_pack())
-      r += std::string("; where one thread walks a row, the walks of a warp share their touching contacts across its lanes (") +
-           (walk_pack_mode_ == WalkPack::on ? "BIODEM_GPU_WALK_PACK=1" : "the timed choice") + "; on CPU threads one lane)";
+      r += std::string("; where one thread walks a row, the walks of a warp share their touching contacts across its lanes") +
+           (pack_split() ? ", " + std::to_string(1u << pack_split()) + " lanes per sphere" : std::string()) + " (" +
+           (walk_pack_mode_ == WalkPack::on ? "BIODEM_GPU_WALK_PACK=1" : "the timed choice") +
+           (pack_split_forced_ ? ", BIODEM_GPU_PACK_SPLIT" : "") + "; on CPU threads one lane)";
+    if (pack_split_forced_ && pack_split_log2_ && walk_pack() && walk_kick() && !single_spheres_)
+      r += "; BIODEM_GPU_PACK_SPLIT unused (the clumps' walk with the body update has its own groups of lanes)";
     if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
       r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
     if (body_lanes() && fixed_sums_)
@@ -419,6 +433,7 @@ class Engine final : public DeviceEngine {
                            : " with the body update in groups of " + std::to_string(1u << walk_kick_lanes_log2_) +
                                  " lanes per body";
     if (k.pack) r += ", touching contacts shared across the warp";
+    if (k.split) r += " by 2 lanes per sphere";
     if (k.body_lanes) r += ", the body kernel by " + std::to_string(1u << body_lanes_auto_log2_) + " lanes per body";
     return r;
   }
@@ -560,7 +575,7 @@ class Engine final : public DeviceEngine {
   /// Row walks (Forces) over n items (System::launch_walks).
   template <class W>
   void launch_walks(std::uint32_t n, const W& w) {
-    if (n) System::launch_walks(n, w, walk_single(), walk_pack());
+    if (n) System::launch_walks(n, w, walk_single(), walk_pack(), pack_split());
   }
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
@@ -710,7 +725,8 @@ class Engine final : public DeviceEngine {
   /// - the row walk by the row lanes (in single-sphere scenes with the body update: ForcesKickDrift);
   /// - the row walk in one thread per sphere, apart from the body update and with it (WALK_KICK;
   ///   single spheres: ForcesKickDrift, clumps of up to 32 spheres: ForcesKickDriftGroups), each
-  ///   with and without the warp's touching contacts shared (WALK_PACK); in scenes of clumps the
+  ///   with and without the warp's touching contacts shared (WALK_PACK), the shared ones but
+  ///   ForcesKickDriftGroups also with two lanes per sphere (PACK_SPLIT); in scenes of clumps the
   ///   walks apart also with the body kernel by lanes (BODY_LANES).
   /// The order-free family: per-contact, the row lanes, one thread (it has no other).
   std::vector<KernelSet> candidate_sets() const {
@@ -730,6 +746,10 @@ class Engine final : public DeviceEngine {
           if (bl && (kick || single_spheres_ || fixed_sums_ || body_lanes_forced_)) continue;
           v.push_back(KernelSet{.single = true, .kick = kick, .pack = pack, .body_lanes = bl});
         }
+        // (the packed walks by one lane per sphere (ForcesKickDriftGroups has its own groups),
+        // also by two lanes per sphere)
+        if (pack && (single_spheres_ || !kick) && !pack_split_forced_)
+          v.push_back(KernelSet{.single = true, .kick = kick, .pack = true, .split = true});
       }
     }
     return v;
@@ -801,6 +821,15 @@ class Engine final : public DeviceEngine {
   bool walk_pack() const {
     if (walk_pack_mode_ != WalkPack::automatic) return walk_pack_mode_ == WalkPack::on;
     return timed_choice() && !use_entry_kernels() && tuned_set().pack;
+  }
+  /// The lanes per sphere (log2) of the packed walks (BIODEM_GPU_PACK_SPLIT, or the timed
+  /// choice's sets with `split`; on CPU threads one lane whatever this says).
+  std::uint32_t pack_split_log2_ = 0;
+  bool pack_split_forced_ = false;
+  std::uint32_t pack_split() const {
+    if (!walk_pack() || (walk_kick() && !single_spheres_)) return 0;  // (ForcesKickDriftGroups: its own groups)
+    if (pack_split_forced_) return pack_split_log2_;
+    return timed_choice() && !use_entry_kernels() && tuned_set().split ? 1u : 0u;
   }
   vec<SphereRecord> s_rec_, s_rec2_;
   /// The records filled from the arrays (upload, after a sort): both buffers' (the second's
@@ -1669,6 +1698,7 @@ inline void Engine::run_units(std::uint32_t units) {
   // Longer runs between checks (set_check_every above 64) are launched plainly.
   constexpr std::uint32_t kMostUnitsInAGraph = 64;
   const std::uint64_t key = (rows_.generation << 20) | (walk_pack() ? 1u << 16 : 0u) | (body_lanes() ? 1u << 17 : 0u) |
+                            (pack_split() ? 1u << 18 : 0u) |
                             (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
                             (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
                             (two_buffers ? 1u << 14 : 0u) | (fixed_sums_ ? 1u << 15 : 0u) |

@@ -1593,12 +1593,23 @@ struct PackedWalkScratch {
 /// for a lane past the items); a lane's walk writes only its own entries, wall slots and
 /// sphere, so which lane evaluates a contact changes nothing. Groups of at most
 /// PackedWalkScratch::kLanes (32) lanes: the queue holds fewer than twice the lanes.
-template <class W, class Group, class Head>
+/// With split_log2 > 0 (BIODEM_GPU_PACK_SPLIT; at most the group's lanes), 2^split_log2
+/// consecutive lanes share one item's walk (all of them called with that item): the lane with
+/// part p of it tests entries p, p + 2^split_log2, ..., so that the walk's tests take that many
+/// times fewer steps; at a step the item's touching entries queue in lane order, which is their
+/// walk order, and the item's first lane (part 0) owns them all: it adds them and ends the walk.
+/// The same contacts in the same order: the same bits. (Split: compiled with the split; without
+/// it, split_log2 is 0 and the walk holds none of the split's state: ptxas spilled the clumps'
+/// packed groups, which never split, 20 bytes more with it.)
+template <bool Split = false, class W, class Group, class Head>
 BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, const Group& grp,
-                                  PackedWalkScratch<Head>& sc) {
+                                  PackedWalkScratch<Head>& sc, std::uint32_t split_log2 = 0) {
   const std::uint32_t lanes = grp.size(), lane = grp.lane(), below = (1u << lane) - 1u;
+  const std::uint32_t split = Split ? 1u << split_log2 : 1u, part = Split ? lane & (split - 1u) : 0u;
+  // (the lanes of this item's walk, as bits of the group's ballots; split = 32: every lane)
+  const std::uint32_t walk_lanes = !Split ? 1u << lane : split >= 32u ? ~0u : ((1u << split) - 1u) << (lane - part);
   Head next{};
-  if (valid && 0 < w.head_limit()) next = w.walk_head(item, 0);  // (entry 0 is in the arrays)
+  if (valid && part < w.head_limit()) next = w.walk_head(item, part);  // (entry `part` is in the arrays)
   WalkStart st{};
   const bool live = valid && w.walk_begin(item, st);
   OrderedWalkSums sums;
@@ -1635,12 +1646,12 @@ BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, co
     mine_next = 0;
     queued = rest;
   };
-  for (std::uint32_t v = 0; grp.ballot(live && v < st.total) != 0; ++v) {
+  for (std::uint32_t v = part; grp.ballot(live && v < st.total) != 0; v += split) {
     bool touching = false;
     Head head{};
     if (live && v < st.len) {
       head = next;
-      if (v + 1 < st.len) next = w.walk_head(item, v + 1);
+      if (v + split < st.len) next = w.walk_head(item, v + split);
       touching = w.walk_touches_from(st, v, head);
     } else if (live && v < st.total) {
       touching = w.walk_touches(st, v);  // a wall
@@ -1651,14 +1662,25 @@ BIODEM_HD inline void walk_packed(const W& w, std::uint32_t item, bool valid, co
       sc.owner[slot] = st;
       sc.v[slot] = v;
       sc.head[slot] = head;
-      if (slot < lanes) mine |= 1u << slot;
-      else mine_next |= 1u << (slot - lanes);
+      if constexpr (!Split) {
+        if (slot < lanes) mine |= 1u << slot;
+        else mine_next |= 1u << (slot - lanes);
+      }
+    }
+    if constexpr (Split) {
+      if (part == 0) {  // the walk's touching entries of this step, whichever of its lanes found them
+        for (std::uint32_t m = voted & walk_lanes; m; m &= m - 1u) {
+          const std::uint32_t k = lowest_bit(m), slot = queued + count_bits(voted & ((1u << k) - 1u));
+          if (slot < lanes) mine |= 1u << slot;
+          else mine_next |= 1u << (slot - lanes);
+        }
+      }
     }
     queued += count_bits(voted);
     if (queued >= lanes) round(lanes);
   }
   if (queued) round(queued);
-  if (live) {
+  if (live && part == 0) {
     Vec3 f, t;
     std::uint32_t count = 0;
     sums.finish(f, t, count);

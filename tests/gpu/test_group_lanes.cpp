@@ -525,12 +525,14 @@ struct MadeUpWalkPacked : MadeUpWalkAhead {
 
 // The row walks of a warp's spheres with their touching contacts shared by its lanes
 // (walk_packed, what for_each_packed_walk runs on CUDA with BIODEM_GPU_WALK_PACK=1) by groups of
-// 1, 2, 4, 8 and 32 thread lanes, each lane a walk of 0 to 40 contacts (two thirds pair
-// entries, a third walls; about three quarters touching) whose values span six decades: the
-// sums of one thread walking each row (walk_row), bit for bit; every contact tested once, every
-// touching one evaluated once and no other; each walk ended once; no wrong head. (It fails when
-// the owners add a round's results in another order, or without the sync before the results are
-// read: checked.)
+// 1, 2, 4, 8 and 32 thread lanes, each walk of 0 to 40 contacts (two thirds pair entries, a
+// third walls; about three quarters touching) whose values span six decades, by one lane each
+// or shared by 2, 4 or 32 lanes (BIODEM_GPU_PACK_SPLIT; lane p of a walk tests its entries p,
+// p + 2, ...): the sums of one thread walking each row (walk_row), bit for bit; every contact
+// tested once, every touching one evaluated once and no other; each walk ended once; no wrong
+// head. (It fails when the owners add a round's results in another order, or without the sync
+// before the results are read, and with split walks when the owner takes only its own lane's
+// contacts or when every lane of a walk ends it: checked.)
 TEST(RowWalkLanes, WarpsSharingTheirTouchingContactsGiveTheSumsOfOneThread) {
   constexpr std::uint32_t kItems = 300;
   constexpr std::uint32_t kN = MadeUpWalkPacked::kMostEntries;
@@ -544,7 +546,13 @@ TEST(RowWalkLanes, WarpsSharingTheirTouchingContactsGiveTheSumsOfOneThread) {
     if (one.walk_begin(i, st))
       for (std::uint32_t v = 0; v < st.total; ++v) (one.walk_entry(st, v).kind ? touching : apart) += 1;
   }
-  for (const std::uint32_t lanes : {1u, 2u, 4u, 8u, 32u}) {
+  struct Shape {
+    std::uint32_t lanes, split_log2;
+  };
+  for (const Shape shape : {Shape{1, 0}, Shape{2, 0}, Shape{4, 0}, Shape{8, 0}, Shape{32, 0}, Shape{2, 1}, Shape{8, 1},
+                            Shape{32, 1}, Shape{8, 2}, Shape{32, 5}}) {
+    const std::uint32_t lanes = shape.lanes, split_log2 = shape.split_log2, per_group = lanes >> split_log2;
+    SCOPED_TRACE(std::to_string(lanes) + " lanes, " + std::to_string(1u << split_log2) + " per walk");
     std::vector<Vec3> f(kItems, Vec3{-1, -1, -1}), t(kItems, Vec3{-1, -1, -1});
     std::vector<std::uint32_t> c(kItems, 12345), e(kItems, 0);
     std::atomic<std::uint32_t> wrong{0}, from_heads{0};
@@ -557,10 +565,13 @@ TEST(RowWalkLanes, WarpsSharingTheirTouchingContactsGiveTheSumsOfOneThread) {
     packed.evaluated = evaluated.data();
     static_assert(WalksPacked<MadeUpWalkPacked>::value && !WalksPacked<MadeUpWalkAhead>::value);
     PackedWalkScratch<MadeUpWalkAhead::Head> scratch;  // (one group at a time: one scratch)
-    const std::uint32_t groups = (kItems + lanes - 1) / lanes;
+    const std::uint32_t groups = (kItems + per_group - 1) / per_group;
     in_thread_lanes(groups, lanes, [&](std::uint32_t g, const ThreadLanes& me) {
-      const std::uint32_t item = g * lanes + me.lane();
-      walk_packed(packed, item, item < kItems, me, scratch);
+      const std::uint32_t item = g * per_group + (me.lane() >> split_log2);
+      if (split_log2)
+        walk_packed<true>(packed, item, item < kItems, me, scratch, split_log2);
+      else
+        walk_packed(packed, item, item < kItems, me, scratch);
     });
     std::size_t differ = 0, tests_off = 0, evaluations_off = 0;
     for (std::uint32_t i = 0; i < kItems; ++i) {
@@ -578,9 +589,10 @@ TEST(RowWalkLanes, WarpsSharingTheirTouchingContactsGiveTheSumsOfOneThread) {
     EXPECT_EQ(wrong.load(), 0u) << lanes << " lanes";
     EXPECT_EQ(tests_off, 0u) << lanes << " lanes";
     EXPECT_EQ(evaluations_off, 0u) << lanes << " lanes";
-    std::printf("[measured] row walks of %u lanes sharing their touching contacts vs one thread per row: %u walks, "
-                "%zu contacts touching, %zu apart; %zu walks differ, %u wrong, %zu tests and %zu evaluations off\n",
-                lanes, kItems, touching, apart, differ, wrong.load(), tests_off, evaluations_off);
+    std::printf("[measured] row walks of %u lanes (%u per walk) sharing their touching contacts vs one thread per "
+                "row: %u walks, %zu contacts touching, %zu apart; %zu walks differ, %u wrong, %zu tests and %zu "
+                "evaluations off\n",
+                lanes, 1u << split_log2, kItems, touching, apart, differ, wrong.load(), tests_off, evaluations_off);
   }
   EXPECT_GT(touching, 2000u);
   EXPECT_GT(apart, 500u);

@@ -311,7 +311,7 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
                                 "BIODEM_GPU_SUMS=fixed BIODEM_GPU_SUM_LANES=1",
                                 "BIODEM_GPU_SUMS=fixed BIODEM_GPU_WALK_KICK=1", "BIODEM_GPU_PAIR_LIST=short",
                                 "BIODEM_GPU_RECORDS=2", "BIODEM_GPU_OWN_SPHERE=yes", "BIODEM_GPU_BODY_LANES=3",
-                                "BIODEM_GPU_WALK_PACK=2"}) {
+                                "BIODEM_GPU_WALK_PACK=2", "BIODEM_GPU_PACK_SPLIT=3"}) {
     const std::string d = fresh_dir("gpu_bad_switch");
     auto r = run_command(bad + " " + biodem_exe() + " run " + kNeedles + " --out " + d + " --device " + gpu_device());
     const std::string name = bad.substr(0, bad.find('='));
@@ -323,7 +323,8 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   const std::string ok = fresh_dir("gpu_good_switch");  // the documented values run
   auto r = run_command("BIODEM_GPU_FORCES=rows BIODEM_GPU_SKIN_DIAMETERS=0.5 BIODEM_GPU_CHECK_EVERY=20 "
                        "BIODEM_GPU_BUILD_LANES=1 BIODEM_GPU_SUM_LANES=auto BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_PDL=0 "
-                       "BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto BIODEM_GPU_WALK_PACK=1 " +
+                       "BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto BIODEM_GPU_WALK_PACK=1 "
+                       "BIODEM_GPU_PACK_SPLIT=2 " +
                        biodem_exe() +
                        " run " + kNeedles + " --out " + ok + " --device " + gpu_device());
   EXPECT_EQ(r.status, 0) << r.output;
@@ -334,6 +335,7 @@ TEST(GpuRuns, BadSwitchesStopWithOneLineNamingThem) {
   EXPECT_NE(how.find("in groups of 4 lanes per body (ForcesKickDriftGroups"), std::string::npos) << how;
   EXPECT_NE(how.find("BIODEM_GPU_BODY_LANES unused (the walk with the body update"), std::string::npos) << how;
   EXPECT_NE(how.find("share their touching contacts across its lanes (BIODEM_GPU_WALK_PACK=1"), std::string::npos) << how;
+  EXPECT_NE(how.find("BIODEM_GPU_PACK_SPLIT unused (the clumps' walk with the body update"), std::string::npos) << how;
   const std::string fixed = fresh_dir("gpu_fixed_sums");  // the order-free family runs and says so
   r = run_command("BIODEM_GPU_SUMS=fixed BIODEM_GPU_FORCES=auto " + biodem_exe() + " run " + kNeedles + " --out " +
                   fixed + " --device " + gpu_device());
@@ -492,12 +494,13 @@ TEST(GpuRuns, TimedKernelChoiceChangesNothing) {
       << line;
   EXPECT_GT(entries_us, 0.0);
   EXPECT_GT(rows_us, 0.0);
-  // Every set timed, "name: median us/step", with "(chosen)" after the set picked and "(one
-  // run: dropped, ...)" after those dropped after the first round (gpu/timed_choice.hpp). This
-  // needle drum has nine: per-contact with the sums in one thread and by the row lanes; the row
+  // Every set timed, "name: median us/step", with "(chosen)" after the set picked and "(dropped
+  // after one run)" after those dropped after the first round (gpu/timed_choice.hpp). This
+  // needle drum has ten: per-contact with the sums in one thread and by the row lanes; the row
   // walk with the row lanes; in one thread, alone, with the warp's touching contacts shared, with
-  // the body kernel by lanes, with both; and in one thread with the body update by groups of 4
-  // lanes per body, with and without the contacts shared.
+  // the body kernel by lanes, with both, with the contacts shared by 2 lanes per sphere; and in
+  // one thread with the body update by groups of 4 lanes per body, with and without the
+  // contacts shared.
   const auto list_at = line.find("each set: [");
   ASSERT_NE(list_at, std::string::npos) << line;
   const std::string list = line.substr(list_at + 11, line.find("] (", list_at) - list_at - 11);
@@ -518,7 +521,7 @@ TEST(GpuRuns, TimedKernelChoiceChangesNothing) {
                             item.find("(chosen)") != std::string::npos, item.find("dropped") != std::string::npos});
     from = to + 2;
   }
-  ASSERT_EQ(timed_sets.size(), 9u) << list;
+  ASSERT_EQ(timed_sets.size(), 10u) << list;
   double best_entries = 1e30, best_walk = 1e30, chosen_us = -1;
   int chosen = 0, dropped = 0, shared = 0, body_lanes = 0, kick = 0;
   bool chose_entries = false;
@@ -536,7 +539,11 @@ TEST(GpuRuns, TimedKernelChoiceChangesNothing) {
     kick += t.name.find("with the body update in groups of 4 lanes per body") != std::string::npos;
   }
   EXPECT_EQ(chosen, 1) << list;
-  EXPECT_EQ(shared, 3) << list;
+  EXPECT_EQ(shared, 4) << list;
+  EXPECT_EQ(std::count_if(timed_sets.begin(), timed_sets.end(),
+                          [](const Timed& t) { return t.name.find("shared across the warp by 2 lanes per sphere") != std::string::npos; }),
+            1)
+      << list;
   EXPECT_EQ(body_lanes, 2) << list;
   EXPECT_EQ(kick, 2) << list;
   EXPECT_NEAR(entries_us, best_entries, 0.006) << line;

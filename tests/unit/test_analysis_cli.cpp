@@ -150,6 +150,7 @@ TEST(AnalysisCli, CommandLineErrorsAreOneLineNamingTheOption) {
       {"run case.toml --out o --bogus", "--bogus"},
       {"analyze x.csv --min-drop-deg abc", "--min-drop-deg"},
       {"", "subcommand is required"},
+      {"bogus case.toml", "unknown command 'bogus' (expected one of run, check, analyze, compare, video, calibrate"},
   };
   for (const auto& c : cases) {
     const auto r = test::run_biodem(c.args);

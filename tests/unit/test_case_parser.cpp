@@ -217,6 +217,21 @@ TEST(CaseParser, SpecExampleParses) {
   EXPECT_NE(lc.warnings[0].find("[run].dt_s"), std::string::npos) << lc.warnings[0];
 }
 
+// SPEC 11's case makes the snapshot and checkpoint keys optional in explicit scenes; a drum case
+// without them loads, with a warning for each naming the key and what is not written (a drum
+// run without checkpoints cannot resume after a kill); the explicit scene below has none.
+TEST(CaseParser, DrumCaseWithoutCheckpointsOrSnapshotsWarns) {
+  const auto lc = case_file::parse_case(
+      edit(edit(kSpecExample, "checkpoint_every_s = 10.0", ""), "snapshot_every_s = 1.0", ""), "drum.toml");
+  EXPECT_FALSE(lc.config.output.checkpoint_every_s);
+  std::string all;
+  for (const auto& w : lc.warnings) all += w + "\n";
+  EXPECT_NE(all.find("drum.toml: [output].checkpoint_every_s is not given: no checkpoints"), std::string::npos) << all;
+  EXPECT_NE(all.find("cannot be resumed"), std::string::npos) << all;
+  EXPECT_NE(all.find("[output].snapshot_every_s is not given"), std::string::npos) << all;
+  EXPECT_EQ(lc.warnings.size(), 3u) << all;  // (and the time step's, as with the keys)
+}
+
 TEST(CaseParser, ExplicitSceneParsesWithDefaults) {
   const auto lc = case_file::parse_case(kScene, "scene.toml");
   const auto& c = lc.config;
