@@ -347,6 +347,10 @@ if [ "$DEVICE" = gpu ] && [ $lanes_ok = 1 ]; then
       why=$(variant_same "$OUT/needles_rows" "needles_packed_split${split}_block$block" BIODEM_GPU_FORCES=rows \
             BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_KICK=0 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=$split BIODEM_GPU_BLOCK=$block) ||
         { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=$split, blocks of $block: $why"; }
+      # (and the split ran: run.log names it)
+      grep -q "share their touching contacts across its lanes, $split lanes per sphere" \
+          "$OUT/needles_packed_split${split}_block$block/run.log" 2>/dev/null ||
+        { lanes_ok=0; lanes_detail="$lanes_detail; BIODEM_GPU_PACK_SPLIT=$split, blocks of $block: run.log does not name $split lanes per sphere"; }
     done
   done
   [ $lanes_ok = 1 ] && lanes_detail="$lanes_detail; the walks sharing their touching contacts (one thread per row, by 2 and 4 lanes per row (BIODEM_GPU_PACK_SPLIT), and the clumps' groups with the body update) x blocks of 32, 512 byte-identical"
@@ -545,6 +549,8 @@ else
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_packed"); then detail="$detail; the walk with the body update sharing the warp's touching contacts, records (BIODEM_GPU_WALK_PACK=1, BIODEM_GPU_RECORDS=1) byte-identical"
   else ok=0; detail="$detail; the packed walk with the body update differs: $(echo $diff)"; fi
   if [ $ws -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PACK_SPLIT=2 failed"
+  elif ! grep -q 'ForcesKickDrift.*share their touching contacts across its lanes, 2 lanes per sphere' "$OUT/wide_walk_kick_split/run.log"; then
+    ok=0; detail="$detail; BIODEM_GPU_PACK_SPLIT=2 with the body update not reported in run.log"
   elif diff=$(same_files "$OUT/wide_a" "$OUT/wide_walk_kick_split"); then detail="$detail; the same by 2 lanes per sphere (BIODEM_GPU_PACK_SPLIT=2) byte-identical"
   else ok=0; detail="$detail; the packed walk with the body update by 2 lanes per sphere differs: $(echo $diff)"; fi
   if [ $wf -ne 0 ]; then ok=0; detail="$detail; the run with BIODEM_GPU_PAIR_LIST=full failed"

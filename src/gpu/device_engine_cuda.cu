@@ -841,11 +841,12 @@ __global__ void __launch_bounds__(kMostThreadsPerBlock)
     for_each_packed_walk(std::uint32_t n, W w, std::uint32_t split_log2) {
   after_previous_kernel();
   extern __shared__ __align__(16) unsigned char packed_walk_shared[];
-  const std::uint32_t thread = blockIdx.x * blockDim.x + threadIdx.x, item = thread >> split_log2;
-  if (((thread & ~31u) >> split_log2) >= n) return;
+  const std::uint32_t s = Split ? split_log2 : 0u;  // (0 known to the compiler without the split)
+  const std::uint32_t thread = blockIdx.x * blockDim.x + threadIdx.x, item = thread >> s;
+  if (((thread & ~31u) >> s) >= n) return;
   using Scratch = PackedWalkScratch<ContactArgs::EntryHead>;
   Scratch& sc = reinterpret_cast<Scratch*>(packed_walk_shared)[threadIdx.x >> 5];
-  walk_packed<Split>(w, item, item < n, WarpGroup::of_thread(5), sc, split_log2);
+  walk_packed<Split>(w, item, item < n, WarpGroup::of_thread(5), sc, s);
 }
 
 /// Items with a group of 2^lanes_log2 lanes each whose row walks share the warp's touching

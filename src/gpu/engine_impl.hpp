@@ -138,8 +138,8 @@ class Engine final : public DeviceEngine {
     }
     // BIODEM_GPU_WALK_KICK=1|0|auto: the row walk and the body update in one kernel (single-sphere
     // bodies: ForcesKickDrift; clumps of up to 32 spheres: ForcesKickDriftGroups, a group of lanes
-    // per body; the sphere motion in two buffers), or apart (Forces, ReduceKickDrift); auto: a
-    // fifth set of the timed choice on a GPU, apart elsewhere. The same bits either way.
+    // per body; the sphere motion in two buffers), or apart (Forces, ReduceKickDrift); auto: timed
+    // sets of both kinds on a GPU (the timed choice), apart elsewhere. The same bits either way.
     if (const char* wk = std::getenv("BIODEM_GPU_WALK_KICK"); wk && *wk) {
       const std::string v(wk);
       if (v != "0" && v != "1" && v != "auto")
@@ -287,10 +287,12 @@ class Engine final : public DeviceEngine {
   void set_sum_lanes(bool on) override {
     sum_lanes_mode_ = on ? SumLanes::on : SumLanes::off;
     invalidate_graphs();
+    if (timed_choice()) restart_tuning();  // (the candidate sets change)
   }
   void set_walk_kick(bool on) override {
     walk_kick_mode_ = on ? WalkKick::on : WalkKick::off;
     invalidate_graphs();
+    if (timed_choice()) restart_tuning();
   }
   std::uint64_t walk_kick_steps() const override { return walk_kick_units_; }
   void set_entry_forces(bool on) override {
@@ -306,6 +308,7 @@ class Engine final : public DeviceEngine {
       walk_kick_mode_ = WalkKick::off;
     }
     fixed_sums_ = on;
+    if (timed_choice()) restart_tuning(false);  // (the candidate sets change; buffers below)
     if (on && !fixed_caps_set_) fixed_grid();
     if (on && rows_.length.size() == ns()) {
       ensure_fixed_sums();
@@ -369,9 +372,12 @@ class Engine final : public DeviceEngine {
       r += std::string("; where one thread walks a row, the walks of a warp share their touching contacts across its lanes") +
            (pack_split() ? ", " + std::to_string(1u << pack_split()) + " lanes per sphere" : std::string()) + " (" +
            (walk_pack_mode_ == WalkPack::on ? "BIODEM_GPU_WALK_PACK=1" : "the timed choice") +
-           (pack_split_forced_ ? ", BIODEM_GPU_PACK_SPLIT" : "") + "; on CPU threads one lane)";
+           (pack_split_forced_ && pack_split() ? ", BIODEM_GPU_PACK_SPLIT" : "") + "; on CPU threads one lane)";
     if (pack_split_forced_ && pack_split_log2_ && walk_pack() && walk_kick() && !single_spheres_)
       r += "; BIODEM_GPU_PACK_SPLIT unused (the clumps' walk with the body update has its own groups of lanes)";
+    else if (pack_split_forced_ && pack_split_log2_ && !pack_split())
+      r += "; BIODEM_GPU_PACK_SPLIT unused (no row walk in one thread sharing its touching contacts: "
+           "BIODEM_GPU_WALK_PACK=1 and the walk in one thread)";
     if (walk_kick_mode_ == WalkKick::on && !walk_kick_fits())
       r += "; BIODEM_GPU_WALK_KICK=1 unused (a body of more than 32 spheres: no kernel for it)";
     if (body_lanes() && fixed_sums_)
@@ -433,8 +439,11 @@ class Engine final : public DeviceEngine {
                            : " with the body update in groups of " + std::to_string(1u << walk_kick_lanes_log2_) +
                                  " lanes per body";
     if (k.pack) r += ", touching contacts shared across the warp";
-    if (k.split) r += " by 2 lanes per sphere";
-    if (k.body_lanes) r += ", the body kernel by " + std::to_string(1u << body_lanes_auto_log2_) + " lanes per body";
+    if (k.pack && (k.split || (pack_split_forced_ && pack_split_log2_ && (single_spheres_ || !k.kick))))
+      r += " by " + std::to_string(k.split ? 2u : 1u << pack_split_log2_) + " lanes per sphere";
+    if (k.body_lanes)
+      r += ", the body kernel by " + std::to_string(1u << (body_lanes_forced_ ? body_lanes_log2_ : body_lanes_auto_log2_)) +
+           " lanes per body";
     return r;
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> list_pairs(std::size_t* unmirrored) override {
@@ -736,22 +745,30 @@ class Engine final : public DeviceEngine {
       if (sum_lanes_mode_ != SumLanes::automatic && sl != (sum_lanes_mode_ == SumLanes::on)) continue;
       v.push_back(KernelSet{.entries = true, .sum_lanes = sl});
     }
-    const bool kick_free = !fixed_sums_ && walk_kick_fits() && walk_kick_mode_ == WalkKick::automatic;
-    v.push_back(KernelSet{.kick = kick_free && single_spheres_});
-    for (const bool kick : {false, true}) {
-      if (kick && !kick_free) continue;
-      for (const bool pack : {false, true}) {
-        if (pack && (fixed_sums_ || walk_pack_mode_ != WalkPack::automatic)) continue;
-        for (const bool bl : {false, true}) {
-          if (bl && (kick || single_spheres_ || fixed_sums_ || body_lanes_forced_)) continue;
+    // Each set says what runs, forced switches included (so that run.log names it).
+    const bool kick_fits = !fixed_sums_ && walk_kick_fits();
+    std::vector<bool> kicks{kick_fits && walk_kick_mode_ == WalkKick::on};
+    if (kick_fits && walk_kick_mode_ == WalkKick::automatic) kicks = {false, true};
+    std::vector<bool> packs{!fixed_sums_ && walk_pack_mode_ == WalkPack::on};
+    if (!fixed_sums_ && walk_pack_mode_ == WalkPack::automatic) packs = {false, true};
+    // (the body kernel by lanes: clumps, the walk apart from the body update; forced, every such set)
+    const std::uint32_t bl_log2 = body_lanes_forced_ ? body_lanes_log2_ : body_lanes_auto_log2_;
+    std::vector<bool> bls{body_lanes_forced_ && bl_log2 > 0};
+    if (!body_lanes_forced_ && bl_log2 > 0) bls = {false, true};
+    // the row lanes (in single-sphere scenes with the body update unless it is switched off; in
+    // scenes of clumps with the body update forced, that is ForcesKickDriftGroups again: left out)
+    if (single_spheres_ || fixed_sums_ || kicks.front() == false)
+      v.push_back(KernelSet{.kick = single_spheres_ && kick_fits && walk_kick_mode_ != WalkKick::off});
+    for (const bool kick : kicks)
+      for (const bool pack : packs) {
+        const bool clumps_apart = !single_spheres_ && !kick && !fixed_sums_;
+        for (const bool bl : clumps_apart ? bls : std::vector<bool>{false})
           v.push_back(KernelSet{.single = true, .kick = kick, .pack = pack, .body_lanes = bl});
-        }
-        // (the packed walks by one lane per sphere (ForcesKickDriftGroups has its own groups),
-        // also by two lanes per sphere)
+        // (the packed walks also by 2 lanes per sphere (PACK_SPLIT unset; forced, every packed
+        // set is split), but ForcesKickDriftGroups, which has its own groups)
         if (pack && (single_spheres_ || !kick) && !pack_split_forced_)
           v.push_back(KernelSet{.single = true, .kick = kick, .pack = true, .split = true});
       }
-    }
     return v;
   }
   /// The sets are timed from the next run of steps on; with `size_buffers`, the entry kernels'

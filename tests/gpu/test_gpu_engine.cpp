@@ -893,11 +893,13 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
   EXPECT_GT(a->contact_count(), 0u);  // (contacts with history at the switches: the test fails without the copy)
 }
 
-// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the first 20 runs of steps
-// between list checks cycle through the entry kernels, the row walk with the row lanes, the
-// row walk in one thread per sphere, the entry kernels with their sums by the row lanes and the
-// row walk in one thread with the body update (in this scene of clumps: by groups of lanes per
-// body, ForcesKickDriftGroups), timed; the fastest runs on.
+// BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the runs of steps between
+// list checks go through the scene's candidate sets (in this scene of clumps ten: the entry
+// kernels, also with their sums by the row lanes; the row walk with the row lanes; in one thread
+// per sphere, alone, with the warp's touching contacts shared (also by 2 lanes per sphere), with
+// the body kernel by lanes; with the body update by groups of lanes per body,
+// ForcesKickDriftGroups, also shared), timed, those far slower dropped after one run; the
+// fastest runs on.
 // Each switch from the entry kernels to the row walk hands over the history (the row walk reads
 // both entries of a pair). The packing stepped that way, with an upload (a new round of trials)
 // in the middle, is bit-identical after every run to the packing stepped with the row walk
@@ -930,15 +932,22 @@ TEST(GpuEngine, TimedKernelChoiceHandsTheHistoryOverBetweenTrials) {
 // timing switches sets for its trials (and hands the history over); the packing stepped so,
 // with re-timings every 60 steps and one asked for, is bit-identical after every run to the
 // packing stepped with the row walk throughout, and makes more choices than the 2 uploads'.
+// (Without the packed walks and the body kernel by lanes, five sets: a timing takes at most 20
+// runs of at most 3 steps whatever is dropped, so the count of choices below does not depend on
+// the host's timings.)
 TEST(GpuEngine, TimedKernelChoiceIsTimedAgainAtPhasesAndPeriodically) {
-  // (spheres: the second and fifth sets update the bodies in the walk, ForcesKickDrift with the
-  // row lanes and in one thread; needles: the fifth, ForcesKickDriftGroups)
+  // (spheres: the walk with the row lanes and the walk in one thread with the body update,
+  // ForcesKickDrift; needles: the one-thread walk with it, ForcesKickDriftGroups)
   for (const bool spheres_only : {false, true}) {
     SCOPED_TRACE(spheres_only ? "spheres" : "needles");
     auto a = packing(0.5e-3, true, true, spheres_only), b = packing(0.5e-3, true, true, spheres_only);
     ::setenv("BIODEM_GPU_FORCES", "timed", 1);
+    ::setenv("BIODEM_GPU_WALK_PACK", "0", 1);
+    ::setenv("BIODEM_GPU_BODY_LANES", "1", 1);
     auto ea = gpu_engine(*a);
     ::unsetenv("BIODEM_GPU_FORCES");
+    ::unsetenv("BIODEM_GPU_WALK_PACK");
+    ::unsetenv("BIODEM_GPU_BODY_LANES");
     auto eb = gpu_engine(*b);
     eb->set_entry_forces(false);
     ea->set_check_every(3);
@@ -973,7 +982,8 @@ TEST(GpuEngine, TimedKernelChoiceIsTimedAgainAtPhasesAndPeriodically) {
     ea->download(true);
     eb->download(true);
     EXPECT_EQ(first_difference(*a, *b), "");
-    // (the fifth set's trials ran ForcesKickDrift, or ForcesKickDriftGroups in the scene of clumps)
+    // (the trials of the sets with the body update ran ForcesKickDrift, or ForcesKickDriftGroups
+    // in the scene of clumps)
     EXPECT_GT(ea->walk_kick_steps(), 0u);
   }
 }

@@ -36,7 +36,7 @@ std::vector<std::size_t> run_to_end(TimedChoice& c, T time) {
 
 }  // namespace
 
-// Five sets at 20, 30, 24, 26 and 25.1 us/step: the first round runs all five in order; 30 and
+// Five sets at 20, 30, 24, 25 and 25.1 us/step: the first round runs all five in order; 30 and
 // 25.1 are more than 1.25 times 20 and are dropped; three more rounds run sets 0, 2 and 3; the
 // median picks set 0. Steps: 5 + 3 x 3 runs of 10.
 TEST(TimedChoice, FirstRoundDropsTheSetsAboveAQuarterOverTheFastest) {
