@@ -99,13 +99,14 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # timed), the one-thread walks with their touching contacts shared across a warp
 # (BIODEM_GPU_WALK_PACK=1, not yet timed; apart from the body update and with it, on the raw
 # drum the clumps' groups), and the same by 2 lanes per sphere (BIODEM_GPU_PACK_SPLIT=2; with
-# the body update on the glass drums only: the clumps' groups do not split),
+# the body update on the glass drums only: the clumps' groups do not split), and with the body
+# update by 4 (for glass_small),
 # then the other changes not yet timed, between two defaults; threads per block and
 # steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2, 4
 # (BIODEM_GPU_FORCES=rows) or 8 lanes and the build by one thread per row, measured in every
 # lease of 2026-11-26 and 27, BIODEM_GPU_QUEUED_CHECK=0 (likewise) and the one-thread walk
-# holding its own sphere alone, are left to SWEEP_SETTINGS: 27
-# settings, about 200 s on the H100 as lease 9's 23 took 170)
+# holding its own sphere alone, are left to SWEEP_SETTINGS: 28
+# settings, about 210 s on the H100 as lease 9's 23 took 170)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
 settings=${SWEEP_SETTINGS-default BIODEM_GPU_WALK_PACK=0+BIODEM_GPU_BODY_LANES=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
@@ -113,7 +114,8 @@ settings=${SWEEP_SETTINGS-default BIODEM_GPU_WALK_PACK=0+BIODEM_GPU_BODY_LANES=1
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0+BIODEM_GPU_WALK_PACK=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_WALK_PACK=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0+BIODEM_GPU_WALK_PACK=1+BIODEM_GPU_PACK_SPLIT=2 \
-  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_WALK_PACK=1+BIODEM_GPU_PACK_SPLIT=2 BIODEM_GPU_RECORDS=1 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_WALK_PACK=1+BIODEM_GPU_PACK_SPLIT=2 \
+  BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_WALK_PACK=1+BIODEM_GPU_PACK_SPLIT=4 BIODEM_GPU_RECORDS=1 \
   BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto \
   BIODEM_GPU_RECORDS=1+BIODEM_GPU_OWN_SPHERE=1+BIODEM_GPU_BODY_LANES=auto \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_WALK_KICK=1+BIODEM_GPU_RECORDS=1 BIODEM_GPU_SUMS=fixed+BIODEM_GPU_RECORDS=1 default \

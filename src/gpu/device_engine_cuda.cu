@@ -519,6 +519,13 @@ inline bool& pdl_launch() {
   return on;
 }
 
+/// The threads one wave of the device holds at 128 registers per thread (the step kernels'
+/// budget): 512 per SM (make_engine sets it from the device's SM count).
+inline std::uint32_t& one_wave_threads() {
+  static std::uint32_t t = 132u * 512u;
+  return t;
+}
+
 /// Launches kernel<<<blocks, block, 0, engine_stream()>>>(args...), with programmatic dependent
 /// launch when pdl_launch().
 template <class... Params, class... Args>
@@ -701,6 +708,8 @@ struct System {
   using Staging = cuda_device::Staging;
   /// BIODEM_GPU_FORCES=auto times the two contact kernel sets on the device (Engine::Tuning).
   static constexpr bool kTimedChoice = true;
+  /// Threads of one wave at 128 registers (the timed choice's split sets: candidate_sets).
+  static std::uint32_t wave_threads() { return one_wave_threads(); }
   using Timer = cuda_device::Timer;
   template <class T>
   using Pending = cuda_device::Pending<T>;
@@ -1014,6 +1023,7 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
   // for compute_90 and later: not on an older device, nor from a build without sm_90 code (PTX
   // of an older target run on a Hopper GPU).
   if (prop.major < 9) pdl_launch() = false;
+  one_wave_threads() = static_cast<std::uint32_t>(prop.multiProcessorCount) * 512u;
   if (pdl_launch()) {
     cudaFuncAttributes fa{};
     if (cudaFuncGetAttributes(&fa, for_each_index<KickDriftSpheres>) != cudaSuccess || fa.ptxVersion < 90)

@@ -93,6 +93,9 @@ struct System {
   /// BIODEM_GPU_FORCES=auto picks the contact kernels by the sphere count here (timing them on
   /// CPU threads would say nothing of a GPU); =timed times them with this clock.
   static constexpr bool kTimedChoice = false;
+  /// Threads of one wave of a GPU at 128 registers (the timed choice's split sets): here those
+  /// of an H100 (132 SMs x 512), so that BIODEM_GPU_FORCES=timed makes the same sets as there.
+  static std::uint32_t wave_threads() { return 132u * 512u; }
   class Timer {
    public:
     void start() { t0_ = std::chrono::steady_clock::now(); }

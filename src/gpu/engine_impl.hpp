@@ -440,7 +440,7 @@ class Engine final : public DeviceEngine {
                                  " lanes per body";
     if (k.pack) r += ", touching contacts shared across the warp";
     if (k.pack && (k.split || (pack_split_forced_ && pack_split_log2_ && (single_spheres_ || !k.kick))))
-      r += " by " + std::to_string(k.split ? 2u : 1u << pack_split_log2_) + " lanes per sphere";
+      r += " by " + std::to_string(1u << (k.split ? k.split : pack_split_log2_)) + " lanes per sphere";
     if (k.body_lanes)
       r += ", the body kernel by " + std::to_string(1u << (body_lanes_forced_ ? body_lanes_log2_ : body_lanes_auto_log2_)) +
            " lanes per body";
@@ -725,6 +725,7 @@ class Engine final : public DeviceEngine {
   static constexpr std::uint64_t kRetimeSteps = 20000;
   std::uint64_t retime_every_ = kRetimeSteps;
   TimedChoice tuning_;
+  std::size_t scene_spheres_ = 0;  // the spheres of the scene uploaded last (candidate_sets)
   std::uint32_t choices_ = 0;       // choices made in the run so far
   std::uint64_t since_choice_ = 0;  // steps run with the set chosen
   /// The sets the timed choice tries in this scene, in the order it tries them (first the
@@ -764,10 +765,13 @@ class Engine final : public DeviceEngine {
         const bool clumps_apart = !single_spheres_ && !kick && !fixed_sums_;
         for (const bool bl : clumps_apart ? bls : std::vector<bool>{false})
           v.push_back(KernelSet{.single = true, .kick = kick, .pack = pack, .body_lanes = bl});
-        // (the packed walks also by 2 lanes per sphere (PACK_SPLIT unset; forced, every packed
-        // set is split), but ForcesKickDriftGroups, which has its own groups)
+        // (the packed walks also by 2 lanes per sphere, and by 4 where that many threads fit in
+        // one wave of the device (PACK_SPLIT unset; forced, every packed set is split), but
+        // ForcesKickDriftGroups, which has its own groups)
         if (pack && (single_spheres_ || !kick) && !pack_split_forced_)
-          v.push_back(KernelSet{.single = true, .kick = kick, .pack = true, .split = true});
+          for (std::uint8_t sp = 1; sp <= 2; ++sp)
+            if (sp == 1 || (static_cast<std::uint64_t>(scene_spheres_) << sp) <= System::wave_threads())
+              v.push_back(KernelSet{.single = true, .kick = kick, .pack = true, .split = sp});
       }
     return v;
   }
@@ -846,7 +850,7 @@ class Engine final : public DeviceEngine {
   std::uint32_t pack_split() const {
     if (!walk_pack() || (walk_kick() && !single_spheres_)) return 0;  // (ForcesKickDriftGroups: its own groups)
     if (pack_split_forced_) return pack_split_log2_;
-    return timed_choice() && !use_entry_kernels() && tuned_set().split ? 1u : 0u;
+    return timed_choice() && !use_entry_kernels() ? tuned_set().split : 0u;
   }
   vec<SphereRecord> s_rec_, s_rec2_;
   /// The records filled from the arrays (upload, after a sort): both buffers' (the second's
@@ -1095,6 +1099,7 @@ inline void Engine::upload() {
     body_lanes_auto_log2_ = std::min<std::uint32_t>(walk_kick_lanes_log2_, 5u);
     if (body_lanes_auto_) body_lanes_log2_ = body_lanes_auto_log2_;
   }
+  scene_spheres_ = s.size();
   // (the candidate sets depend on the scene above; the list build below sizes the entry
   // buffers for the new scene)
   restart_tuning(false);

@@ -22,7 +22,7 @@ struct KernelSet {
   bool single = false;      // (row walk) one thread per sphere, else the row lanes
   bool kick = false;        // (row walk) the body update inside the walk (ForcesKickDrift, ...Groups)
   bool pack = false;        // (row walk in one thread) the warp's touching contacts shared by its lanes
-  bool split = false;       // (packed walk) two lanes per sphere share its walk's tests
+  std::uint8_t split = 0;   // (packed walk) 2^split lanes per sphere share its walk's tests
   bool body_lanes = false;  // (row walk apart from the body update, clumps) the body kernel by lanes
   friend bool operator==(const KernelSet&, const KernelSet&) = default;
 };
