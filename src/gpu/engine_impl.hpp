@@ -198,7 +198,8 @@ class Engine final : public DeviceEngine {
     }
     // BIODEM_GPU_PACK_SPLIT=1|2|4: the lanes of a warp that share each sphere's packed walk
     // (walk_packed's split; on CUDA, not for the clumps' walk with the body update by groups);
-    // unset: the timed choice's packed sets with one and with two. The same bits either way.
+    // unset: the timed choice's packed sets with one, two and (where four threads per sphere fit
+    // in one wave of the device) four. The same bits either way.
     if (const char* v = std::getenv("BIODEM_GPU_PACK_SPLIT"); v && *v) {
       const std::string sv(v);
       if (sv != "1" && sv != "2" && sv != "4")
@@ -426,7 +427,8 @@ class Engine final : public DeviceEngine {
     return set + (use_entry_kernels() ? std::string() : ", " + set_name(tuned_set())) +
            ", the fastest when the sets were last timed, over " + std::to_string(tuning_.steps()) +
            " steps (median of up to " + std::to_string(TimedChoice::kRounds) + " runs each; a set above " + keep +
-           " times the first round's fastest dropped after its run in it): per-contact " + us_or_none(entries) + ", row walk " + us_or_none(walk) + "; each set: [" + each +
+           " times the first round's fastest dropped after its run in it): per-contact " + us_or_none(entries) +
+           ", row walk " + us_or_none(walk) + "; each set: [" + each +
            "] (" + std::to_string(choices_) + " choice(s) in the run: after each upload, at each phase start and every " +
            std::to_string(retime_every_) + " steps)";
   }
@@ -736,8 +738,9 @@ class Engine final : public DeviceEngine {
   /// - the row walk in one thread per sphere, apart from the body update and with it (WALK_KICK;
   ///   single spheres: ForcesKickDrift, clumps of up to 32 spheres: ForcesKickDriftGroups), each
   ///   with and without the warp's touching contacts shared (WALK_PACK), the shared ones but
-  ///   ForcesKickDriftGroups also with two lanes per sphere (PACK_SPLIT); in scenes of clumps the
-  ///   walks apart also with the body kernel by lanes (BODY_LANES).
+  ///   ForcesKickDriftGroups also by 2 lanes per sphere, and by 4 where that fits in one wave of
+  ///   the device (PACK_SPLIT); in scenes of clumps the walks apart also with the body kernel by
+  ///   lanes (BODY_LANES).
   /// The order-free family: per-contact, the row lanes, one thread (it has no other).
   std::vector<KernelSet> candidate_sets() const {
     std::vector<KernelSet> v;
