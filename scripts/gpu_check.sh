@@ -128,7 +128,7 @@ variant_same() {  # ref-dir label VAR=value... -> status 0 when the needle drum 
 
 same_files() {  # dirA dirB -> prints the files that differ or are missing; status 0 if all equal
   local a=$1 b=$2 bad=0 f
-  for f in series.csv trace.csv checkpoint.bin snapshots.pvd bodies.pvd $(cd "$a" && ls snapshots/*.vtu bodies/*.vtu 2>/dev/null); do
+  for f in series.csv trace.csv checkpoint.bin snapshots.pvd bodies.pvd $(cd "$a" && ls snapshots/*.vtu bodies/*.vtu speed_images/*.png 2>/dev/null); do
     [ -e "$a/$f" ] || continue
     if ! cmp -s "$a/$f" "$b/$f"; then echo "$f"; bad=1; fi
   done

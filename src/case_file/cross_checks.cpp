@@ -33,6 +33,8 @@ void CaseParser::check_something_to_simulate() const {
     fail("[[population]]: populations are only used by [insertion], which is missing");
   if (cfg_.output.frame_every_s && !cfg_.drum)
     fail("[output].frame_every_s: back-lit frames are cross-sections of the drum, and this case has no [drum]");
+  if (cfg_.output.speed_images.value_or(false) && !cfg_.drum)
+    fail("[output].speed_images: the speed images are cross-sections of the drum, and this case has no [drum]");
 }
 
 void CaseParser::check_unused() {
@@ -43,6 +45,8 @@ void CaseParser::check_unused() {
          "killed otherwise cannot be resumed");
   if (cfg_.drum && cfg_.insertion && !cfg_.output.snapshot_every_s)
     warn("[output].snapshot_every_s is not given: snapshots only after the insertion and at the end");
+  if (cfg_.output.speed_image_max_m_s && (!cfg_.drum || !cfg_.output.speed_images.value_or(true)))
+    warn("[output].speed_image_max_m_s is not used: no speed images (they need a [drum] and speed_images not false)");
   std::set<std::size_t> used;
   for (const auto& p : cfg_.populations) used.insert(p.shape);
   for (const auto& p : cfg_.particles) used.insert(p.shape);

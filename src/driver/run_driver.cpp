@@ -22,6 +22,9 @@
 #include "output/analysis_files.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
+#if BIODEM_HAVE_OPENCV
+#include "output/speed_image.hpp"
+#endif
 
 namespace biodem::driver {
 namespace {
@@ -82,6 +85,8 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
 #if !BIODEM_HAVE_OPENCV
   if (cfg_.output.frame_every_s)
     throw Error(cfg_.source_path + ": [output] frame_every_s: back-lit frames are not built in this lean build (no OpenCV)");
+  if (cfg_.output.speed_images.value_or(false))
+    throw Error(cfg_.source_path + ": [output] speed_images: speed images are not built in this lean build (no OpenCV)");
 #endif
 }
 
@@ -195,6 +200,7 @@ RunSummary Runner::run() {
     fs::remove_all(opt_.out_dir + "/snapshots");
     fs::remove_all(opt_.out_dir + "/bodies");
     fs::remove_all(opt_.out_dir + "/frames");
+    fs::remove_all(opt_.out_dir + "/speed_images");
     // ... and so would an earlier `biodem analyze` of the folder: its tables and plots describe
     // the old series.csv.
     for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
@@ -205,6 +211,15 @@ RunSummary Runner::run() {
   fs::create_directories(opt_.out_dir + "/snapshots");
   fs::create_directories(opt_.out_dir + "/bodies");
   if (cfg_.output.frame_every_s) fs::create_directories(opt_.out_dir + "/frames");
+  // Speed images: by default in drum runs of builds with images (the lean build has none).
+#if BIODEM_HAVE_OPENCV
+  speed_images_ = built_.drum && cfg_.output.speed_images.value_or(true);
+  if (speed_images_) {
+    speed_scale_m_s_ = cfg_.output.speed_image_max_m_s.value_or(
+        output::default_speed_scale_m_s(built_.drum->radius_m(), cfg_.drum->rpm));
+    fs::create_directories(opt_.out_dir + "/speed_images");
+  }
+#endif
   {
     std::ifstream in(cfg_.source_path, std::ios::binary);
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

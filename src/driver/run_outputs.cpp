@@ -18,6 +18,7 @@
 #include "core/error.hpp"
 #if BIODEM_HAVE_OPENCV
 #include "output/png_mat.hpp"
+#include "output/speed_image.hpp"
 #endif
 
 namespace biodem::driver {
@@ -99,6 +100,26 @@ void Runner::snapshot() {
   c.ints = {{"body_id", body}, {"material", material}};
   output::write_vtu(opt_.out_dir + "/snapshots/" + name, c);
   pvd_->add(sim_.time_s(), std::string("snapshots/") + name);
+#if BIODEM_HAVE_OPENCV
+  if (speed_images_) {  // the same cross-section coloured by speed, numbered as the snapshot
+    std::vector<double> x(s.size()), y(s.size()), z(s.size());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      x[i] = s.position_m[i].x;
+      y[i] = s.position_m[i].y;
+      z[i] = s.position_m[i].z;
+    }
+    output::SpeedImageOptions so;
+    so.drum_px = static_cast<int>(cfg_.output.frame_size_px);
+    so.max_speed_m_s = speed_scale_m_s_;
+    char title[128];
+    std::snprintf(title, sizeof title, "t = %.4f s, revolution %.4f, %zu spheres",
+                  config::whole_steps_time(sim_.time_s(), sim_.dt_s()), revolution(), s.size());
+    so.title = title;
+    std::snprintf(name, sizeof name, "speed_%06zu.png", snapshot_index_);
+    output::write_png(opt_.out_dir + "/speed_images/" + name,
+                      output::render_speed_image(x, y, z, s.radius_m, speed, built_.drum->radius_m(), so));
+  }
+#endif
 
   std::snprintf(name, sizeof name, "bodies_%06zu.vtu", snapshot_index_);
   output::PointCloud cb;

@@ -106,6 +106,8 @@ class Runner {
   std::ofstream log_;
   std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
   std::size_t frame_index_ = 0;
+  bool speed_images_ = false;   // a speed image at each snapshot ([output] speed_images)
+  double speed_scale_m_s_ = 0;  // the top of its colour scale
   std::uint64_t last_sample_step_ = ~std::uint64_t{0}, last_snapshot_step_ = ~std::uint64_t{0};
 #if BIODEM_HAVE_OPENCV
   analysis::SurfaceParams surface_params_{};

@@ -14,6 +14,7 @@
 #include "case_file/derived_quantities.hpp"
 #include "config/steps.hpp"
 #include "contact/time_step.hpp"
+#include "output/speed_scale.hpp"
 #include "shapes/clump_template.hpp"
 
 namespace biodem::output {
@@ -307,6 +308,18 @@ std::string describe_case(const config::CaseConfig& c) {
   os << ", checkpoints " << (o.checkpoint_every_s ? "every " + num(*o.checkpoint_every_s) + " s" : std::string("none"));
   os << ", trace " << (o.trace ? "on" : "off");
   if (o.frame_every_s) os << ", frames every " << num(*o.frame_every_s) << " s at " << o.frame_size_px << " px";
+  if (c.drum) {
+#if BIODEM_HAVE_OPENCV
+    if (o.speed_images.value_or(true))
+      os << ", speed images at each snapshot (colour scale 0 to "
+         << num(o.speed_image_max_m_s.value_or(default_speed_scale_m_s(0.5 * c.drum->diameter_m, c.drum->rpm)))
+         << " m/s)";
+    else
+      os << ", speed images off";
+#else
+    os << ", speed images not built (no OpenCV)";
+#endif
+  }
   os << "\n";
   return os.str();
 }

@@ -569,6 +569,19 @@ TEST(CaseParser, FramesWithoutADrumAreRejected) {
   EXPECT_ERROR_NAMES(kScene + "\n[output]\nframe_every_s = 0.001\n", "[output].frame_every_s");
 }
 
+// Speed images too: asked for without a drum, an error; their keys' values are checked.
+TEST(CaseParser, SpeedImageKeysAreChecked) {
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_images = true\n", "[output].speed_images");
+  EXPECT_TRUE(error_of(kScene + "\n[output]\nspeed_images = false\n").empty());
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_images = 1\n", "speed_images");
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_image_max_m_s = 0.0\n", "speed_image_max_m_s");
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_image_max_m_s = -1.0\n", "speed_image_max_m_s");
+  const auto c = case_file::parse_case(kScene + "\n[output]\nspeed_image_max_m_s = 0.02\n", "c").config;
+  ASSERT_TRUE(c.output.speed_image_max_m_s);
+  EXPECT_DOUBLE_EQ(*c.output.speed_image_max_m_s, 0.02);
+  EXPECT_FALSE(c.output.speed_images);
+}
+
 TEST(CaseParser, SyntaxErrorNamesFileAndLine) {
   EXPECT_ERROR_NAMES("[run]\ndt_s = = 1\n", "case.toml:2:");
 }

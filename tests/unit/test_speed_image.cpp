@@ -1,0 +1,152 @@
+// The cross-sections coloured by speed (output/speed_image.hpp; SPEC 6, "snapshots coloured by
+// speed"): the colour map at its stops and beyond them, where a sphere lands (signs of x and y),
+// which of two overlapping spheres is seen (the nearer, larger z, whatever the input order), the
+// colour bar's ends, the default scale, and the bad arguments.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <vector>
+
+#include "output/speed_image.hpp"
+
+namespace {
+
+using biodem::output::render_speed_image;
+using biodem::output::speed_colour_bgr;
+using biodem::output::speed_image_geometry;
+using biodem::output::SpeedImageOptions;
+using Bgr = std::array<std::uint8_t, 3>;
+
+Bgr pixel(const cv::Mat& img, double col, double row) {
+  const auto& p = img.at<cv::Vec3b>(static_cast<int>(std::lround(row)), static_cast<int>(std::lround(col)));
+  return {p[0], p[1], p[2]};
+}
+
+struct Scene {
+  std::vector<double> x, y, z, r, v;
+  void add(double xi, double yi, double zi, double ri, double vi) {
+    x.push_back(xi);
+    y.push_back(yi);
+    z.push_back(zi);
+    r.push_back(ri);
+    v.push_back(vi);
+  }
+  cv::Mat render(const SpeedImageOptions& o, double drum_r = 0.1) const { return render_speed_image(x, y, z, r, v, drum_r, o); }
+};
+
+}  // namespace
+
+TEST(SpeedImage, ColourMapHasTheViridisStopsAndClipsOutsideTheScale) {
+  // viridis at 0, 1/4, 1/2, 3/4, 1 in red, green, blue: written here as blue, green, red
+  EXPECT_EQ(speed_colour_bgr(0.0), (Bgr{84, 1, 68}));
+  EXPECT_EQ(speed_colour_bgr(0.25), (Bgr{139, 82, 59}));
+  EXPECT_EQ(speed_colour_bgr(0.5), (Bgr{140, 145, 33}));
+  EXPECT_EQ(speed_colour_bgr(0.75), (Bgr{98, 201, 94}));
+  EXPECT_EQ(speed_colour_bgr(1.0), (Bgr{37, 231, 253}));
+  // halfway between the first two stops: (68 + 59) / 2 = 63.5, (1 + 82) / 2 = 41.5, (84 + 139) / 2 = 111.5
+  EXPECT_EQ(speed_colour_bgr(0.125), (Bgr{112, 42, 64}));
+  EXPECT_EQ(speed_colour_bgr(-3.0), speed_colour_bgr(0.0));
+  EXPECT_EQ(speed_colour_bgr(7.0), speed_colour_bgr(1.0));
+  EXPECT_EQ(speed_colour_bgr(std::numeric_limits<double>::infinity()), speed_colour_bgr(1.0));
+  EXPECT_EQ(speed_colour_bgr(std::numeric_limits<double>::quiet_NaN()), (Bgr{128, 128, 128}));
+  // brighter (sum of the channels) as the speed rises, so a grey print still orders them
+  int last = -1;
+  for (int k = 0; k <= 20; ++k) {
+    const Bgr c = speed_colour_bgr(k / 20.0);
+    const int sum = c[0] + c[1] + c[2];
+    EXPECT_GT(sum, last) << k;
+    last = sum;
+  }
+}
+
+TEST(SpeedImage, SpheresLandWhereTheyAreInTheirSpeedsColour) {
+  SpeedImageOptions o;
+  o.drum_px = 256;
+  o.max_speed_m_s = 2.0;
+  Scene s;
+  s.add(0.05, 0.0, 0.0, 0.01, 0.0);   // right of the axis, at rest
+  s.add(0.0, 0.05, 0.0, 0.01, 1.0);   // above the axis, half the scale
+  s.add(-0.05, 0.0, 0.0, 0.01, 9.0);  // left of the axis, above the scale
+  s.add(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0, 0.01, 1.0);  // skipped, not drawn
+  const cv::Mat img = s.render(o);
+  const auto g = speed_image_geometry(0.1, o);
+  ASSERT_EQ(img.cols, g.width);
+  ASSERT_EQ(img.rows, g.height);
+  ASSERT_EQ(img.type(), CV_8UC3);
+  EXPECT_NEAR(g.px_per_m, 0.5 * 0.92 * 256 / 0.1, 1e-9);
+  EXPECT_EQ(pixel(img, g.centre_col + 0.05 * g.px_per_m, g.centre_row), speed_colour_bgr(0.0));
+  EXPECT_EQ(pixel(img, g.centre_col, g.centre_row - 0.05 * g.px_per_m), speed_colour_bgr(0.5));
+  EXPECT_EQ(pixel(img, g.centre_col - 0.05 * g.px_per_m, g.centre_row), speed_colour_bgr(1.0));
+  // the mirror images of those places are empty drum (light grey), the axis too; outside the drum white
+  const Bgr inside{235, 235, 235}, outside{255, 255, 255};
+  EXPECT_EQ(pixel(img, g.centre_col, g.centre_row + 0.05 * g.px_per_m), inside);
+  EXPECT_EQ(pixel(img, g.centre_col, g.centre_row), inside);
+  EXPECT_EQ(pixel(img, 2.0, g.height - 2.0), outside);  // the drum square's lower left corner
+  // a sphere's edge: 0.6 of its radius from its centre still its colour, 1.6 radii away not
+  EXPECT_EQ(pixel(img, g.centre_col + 0.056 * g.px_per_m, g.centre_row), speed_colour_bgr(0.0));
+  EXPECT_EQ(pixel(img, g.centre_col + 0.066 * g.px_per_m, g.centre_row), inside);
+}
+
+TEST(SpeedImage, TheNearerOfTwoOverlappingSpheresIsSeenWhateverTheOrder) {
+  SpeedImageOptions o;
+  o.drum_px = 200;
+  o.max_speed_m_s = 1.0;
+  const auto g = speed_image_geometry(0.1, o);
+  for (int order = 0; order < 2; ++order) {
+    Scene s;
+    if (order == 0) {
+      s.add(-0.03, -0.04, 0.002, 0.008, 0.25);  // nearer to the viewer at +z
+      s.add(-0.03, -0.04, -0.002, 0.014, 0.75);
+    } else {
+      s.add(-0.03, -0.04, -0.002, 0.014, 0.75);
+      s.add(-0.03, -0.04, 0.002, 0.008, 0.25);
+    }
+    const cv::Mat img = s.render(o);
+    EXPECT_EQ(pixel(img, g.centre_col - 0.03 * g.px_per_m, g.centre_row + 0.04 * g.px_per_m), speed_colour_bgr(0.25))
+        << "order " << order;
+    // the farther, larger sphere shows around the nearer one (11 mm from the centres: 3 mm
+    // beyond the nearer one's edge, 3 mm within the farther one's)
+    EXPECT_EQ(pixel(img, g.centre_col - 0.03 * g.px_per_m + 0.011 * g.px_per_m, g.centre_row + 0.04 * g.px_per_m),
+              speed_colour_bgr(0.75))
+        << "order " << order;
+  }
+}
+
+TEST(SpeedImage, ColourBarRunsFromZeroAtTheBottomToTheTopOfTheScale) {
+  SpeedImageOptions o;
+  o.drum_px = 300;
+  o.max_speed_m_s = 0.0105;
+  const cv::Mat img = Scene{}.render(o);
+  const auto g = speed_image_geometry(0.1, o);
+  const double mid_col = 0.5 * (g.bar_col0 + g.bar_col1);
+  EXPECT_EQ(pixel(img, mid_col, g.bar_row_bottom), speed_colour_bgr(0.0));
+  EXPECT_EQ(pixel(img, mid_col, g.bar_row_top), speed_colour_bgr(1.0));
+  EXPECT_EQ(pixel(img, mid_col, 0.5 * (g.bar_row_top + g.bar_row_bottom)), speed_colour_bgr(0.5));
+  EXPECT_GT(g.bar_col0, 300);  // right of the drum's square
+  EXPECT_LT(g.bar_col1, g.width);
+}
+
+TEST(SpeedImage, DefaultScaleIsTwiceTheRimSpeed) {
+  // R = 0.1 m at 0.5 rpm: rim 0.5 * 2 pi / 60 * 0.1 = 5.236e-3 m/s
+  EXPECT_NEAR(biodem::output::default_speed_scale_m_s(0.1, 0.5), 2.0 * 0.5 * 2.0 * std::numbers::pi / 60.0 * 0.1,
+              1e-15);
+  EXPECT_NEAR(biodem::output::default_speed_scale_m_s(0.1, 0.5), 0.0104720, 1e-7);
+  EXPECT_EQ(biodem::output::default_speed_scale_m_s(0.1, -0.5), biodem::output::default_speed_scale_m_s(0.1, 0.5));
+  EXPECT_EQ(biodem::output::default_speed_scale_m_s(0.1, 0.0), 0.1);
+}
+
+TEST(SpeedImage, BadArgumentsAreRefused) {
+  Scene s;
+  s.add(0.0, 0.0, 0.0, 0.01, 0.1);
+  SpeedImageOptions o;
+  EXPECT_THROW(render_speed_image(s.x, s.y, s.z, s.r, std::vector<double>{}, 0.1, o), std::invalid_argument);
+  EXPECT_THROW(s.render(o, 0.0), std::invalid_argument);
+  o.max_speed_m_s = 0.0;
+  EXPECT_THROW(s.render(o), std::invalid_argument);
+  o.max_speed_m_s = 1.0;
+  o.drum_px = 32;
+  EXPECT_THROW(s.render(o), std::invalid_argument);
+}
