@@ -6,4 +6,4 @@ bash scripts/deps.sh
 bash scripts/build.sh
 ./build/biodem check cases/glass_beads_small.toml > /dev/null
 ./build/biodem run cases/glass_beads_small.toml --out out/glass_beads_small
-echo "Outputs: $(pwd)/out/glass_beads_small (series.csv, snapshots.pvd for ParaView, run.log)"
+echo "Outputs: $(pwd)/out/glass_beads_small (series.csv, snapshots.pvd for ParaView, speed_images/*.png, run.log)"
