@@ -59,6 +59,16 @@ class SphereHash {
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> map_;
 };
 
+/// The body of a request placed at `pos` with orientation `q`.
+void add_placed_body(sim::Simulation& sim, const InsertionRequest& req, const Vec3& pos, const Quat& q) {
+  sim::BodyInit b;
+  b.shape = req.shape;
+  b.material = req.material;
+  b.position_m = pos;
+  b.orientation = q;
+  sim.add_body(b);
+}
+
 }  // namespace
 
 Quat random_orientation(std::mt19937_64& rng) {
@@ -141,12 +151,7 @@ std::size_t insert_wave(sim::Simulation& sim, const CylinderRegion& reg, const s
       }
       if (!ok) continue;
       for (std::size_t k = 0; k < t.sphere_count(); ++k) add_with_images(placed[k], t.radii_m[k]);
-      sim::BodyInit b;
-      b.shape = req.shape;
-      b.material = req.material;
-      b.position_m = pos;
-      b.orientation = q;
-      sim.add_body(b);
+      add_placed_body(sim, req, pos, q);
     }
     if (ok) ++next;
   }
@@ -216,12 +221,7 @@ std::size_t insert_wave(sim::Simulation& sim, const Region& reg, const std::vect
       }
       if (!ok) continue;
       for (std::size_t s = 0; s < t.sphere_count(); ++s) hash.add(placed[s], t.radii_m[s]);
-      sim::BodyInit bi;
-      bi.shape = req.shape;
-      bi.material = req.material;
-      bi.position_m = pos;
-      bi.orientation = q;
-      sim.add_body(bi);
+      add_placed_body(sim, req, pos, q);
     }
     if (ok) ++next;
   }
