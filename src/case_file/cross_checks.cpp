@@ -45,8 +45,14 @@ void CaseParser::check_unused() {
          "killed otherwise cannot be resumed");
   if (cfg_.drum && cfg_.insertion && !cfg_.output.snapshot_every_s)
     warn("[output].snapshot_every_s is not given: snapshots only after the insertion and at the end");
-  if (cfg_.output.speed_image_max_m_s && (!cfg_.drum || !cfg_.output.speed_images.value_or(true)))
-    warn("[output].speed_image_max_m_s is not used: no speed images (they need a [drum] and speed_images not false)");
+#if BIODEM_HAVE_OPENCV
+  const bool speed_images = cfg_.drum && cfg_.output.speed_images.value_or(true);
+#else
+  const bool speed_images = false;  // (the lean build has none; `run` refuses speed_images = true)
+#endif
+  if (!speed_images && (cfg_.output.speed_image_max_m_s || cfg_.output.speed_image_size_px != config::Output{}.speed_image_size_px))
+    warn(std::string("[output].") + (cfg_.output.speed_image_max_m_s ? "speed_image_max_m_s" : "speed_image_size_px") +
+         " is not used: no speed images (they need a [drum], speed_images not false and a build with OpenCV)");
   std::set<std::size_t> used;
   for (const auto& p : cfg_.populations) used.insert(p.shape);
   for (const auto& p : cfg_.particles) used.insert(p.shape);

@@ -85,4 +85,16 @@ double resolved_skin_m(const config::CaseConfig& c) {
   return std::isfinite(rmin) ? neighbor::default_skin_m(rmin) : 0.0;
 }
 
+double speed_image_scale_m_s(const config::CaseConfig& c) {
+  if (!c.drum) return 0.0;
+  if (c.output.speed_image_max_m_s) return *c.output.speed_image_max_m_s;
+  const double rim = std::abs(c.drum->rpm) * 2.0 * std::numbers::pi / 60.0 * 0.5 * c.drum->diameter_m;
+  double d = 0.0;
+  for (const auto& [s, t] : used_templates(c)) d = std::max(d, t.equivalent_diameter_m());
+  const auto& g = c.run.gravity_m_s2;
+  const double fall = std::sqrt(std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * d);
+  const double top = std::max(2.0 * rim, fall);
+  return top > 0.0 ? top : 0.1;
+}
+
 }  // namespace biodem::case_file

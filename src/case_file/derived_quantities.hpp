@@ -51,4 +51,12 @@ double smallest_rayleigh_time_s(const config::CaseConfig& c);
 /// 0 if none).
 double resolved_skin_m(const config::CaseConfig& c);
 
+/// The top of the speed images' colour scale (output/speed_image.hpp): [output].speed_image_max_m_s,
+/// or the larger of twice the drum's rim speed (2 |rpm| 2 pi / 60 R) and sqrt(|g| d), d the largest
+/// volume-equivalent diameter of the shapes in use after coarse graining (the speed of a particle
+/// that fell its own size: the order of a cascade's surface speed), so that the flowing layer
+/// spans the colours and the bed turning with the drum the lowest of them; 0.1 m/s where both
+/// are 0. 0 without a [drum].
+double speed_image_scale_m_s(const config::CaseConfig& c);
+
 }  // namespace biodem::case_file

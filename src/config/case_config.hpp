@@ -180,10 +180,12 @@ struct Output {
   bool trace = false;
   std::optional<double> frame_every_s;       // back-lit cross-section frames
   std::uint32_t frame_size_px = 512;
-  // Cross-sections coloured by speed at each snapshot (speed_images/): absent, on in drum cases
-  // of builds with images; the top of the colour scale, absent: twice the drum's rim speed.
+  // The drum seen from its end coloured by speed at each snapshot (speed_images/): absent, on in
+  // drum cases of builds with images; the top of the colour scale, absent: derived
+  // (case_file::speed_image_scale_m_s); the side of the drum's square in pixels.
   std::optional<bool> speed_images;
   std::optional<double> speed_image_max_m_s;
+  std::uint32_t speed_image_size_px = 512;
 };
 
 /// Model options of [contact] that apply to every pair.

@@ -16,15 +16,13 @@
 #include <iostream>
 #include <sstream>
 
+#include "case_file/derived_quantities.hpp"
 #include "core/error.hpp"
 #include "core/parallel.hpp"
 #include "driver/runner.hpp"
 #include "output/analysis_files.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
-#if BIODEM_HAVE_OPENCV
-#include "output/speed_image.hpp"
-#endif
 
 namespace biodem::driver {
 namespace {
@@ -215,8 +213,7 @@ RunSummary Runner::run() {
 #if BIODEM_HAVE_OPENCV
   speed_images_ = built_.drum && cfg_.output.speed_images.value_or(true);
   if (speed_images_) {
-    speed_scale_m_s_ = cfg_.output.speed_image_max_m_s.value_or(
-        output::default_speed_scale_m_s(built_.drum->radius_m(), cfg_.drum->rpm));
+    speed_scale_m_s_ = case_file::speed_image_scale_m_s(cfg_);  // (the number run.log states)
     fs::create_directories(opt_.out_dir + "/speed_images");
   }
 #endif
@@ -325,7 +322,8 @@ RunSummary Runner::run() {
   log_.flush();
   std::ostringstream msg;
   msg << "done: " << r.steps << " steps (" << r.simulated_s << " s simulated) in " << output::format_duration(wall)
-      << "; outputs in " << opt_.out_dir << " (series.csv, snapshots.pvd, run.log)";
+      << "; outputs in " << opt_.out_dir << " (series.csv, snapshots.pvd" << (speed_images_ ? ", speed_images/" : "")
+      << ", run.log)";
   progress_.finish(msg.str());
   return r;
 }

@@ -109,8 +109,9 @@ void Runner::snapshot() {
       z[i] = s.position_m[i].z;
     }
     output::SpeedImageOptions so;
-    so.drum_px = static_cast<int>(cfg_.output.frame_size_px);
+    so.drum_px = static_cast<int>(cfg_.output.speed_image_size_px);
     so.max_speed_m_s = speed_scale_m_s_;
+    if (cfg_.drum->axial_boundary == config::AxialBoundary::Periodic) so.period_z_m = cfg_.drum->width_m;
     char title[128];
     std::snprintf(title, sizeof title, "t = %.4f s, revolution %.4f, %zu spheres",
                   config::whole_steps_time(sim_.time_s(), sim_.dt_s()), revolution(), s.size());

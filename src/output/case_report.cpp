@@ -14,7 +14,6 @@
 #include "case_file/derived_quantities.hpp"
 #include "config/steps.hpp"
 #include "contact/time_step.hpp"
-#include "output/speed_scale.hpp"
 #include "shapes/clump_template.hpp"
 
 namespace biodem::output {
@@ -311,9 +310,8 @@ std::string describe_case(const config::CaseConfig& c) {
   if (c.drum) {
 #if BIODEM_HAVE_OPENCV
     if (o.speed_images.value_or(true))
-      os << ", speed images at each snapshot (colour scale 0 to "
-         << num(o.speed_image_max_m_s.value_or(default_speed_scale_m_s(0.5 * c.drum->diameter_m, c.drum->rpm)))
-         << " m/s)";
+      os << ", speed images at each snapshot (" << o.speed_image_size_px << " px, colour scale 0 to "
+         << num(case_file::speed_image_scale_m_s(c)) << " m/s)";
     else
       os << ", speed images off";
 #else

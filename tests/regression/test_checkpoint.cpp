@@ -43,6 +43,7 @@ TEST(CheckpointRestart, KilledRunResumesBitForBit) {
   for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"}) EXPECT_EQ(slurp(a + pvd), slurp(b + pvd)) << pvd;
 #if BIODEM_HAVE_OPENCV
   ASSERT_TRUE(fs::exists(a + "/speed_images"));  // a drum case: speed images at each snapshot
+  ASSERT_FALSE(fs::is_empty(a + "/speed_images"));
   const auto dirs = {"/snapshots/", "/bodies/", "/speed_images/"};
 #else
   const auto dirs = {"/snapshots/", "/bodies/"};  // (the lean build has no speed images)

@@ -1,8 +1,10 @@
 // The speed images of `run` (SPEC 6, "snapshots coloured by speed"; output/speed_image.hpp): one
 // per snapshot, numbered as the snapshot, in drum runs by default; none with
-// [output] speed_images = false; the bed drawn where it lies (the lower half of the drum).
+// [output] speed_images = false; the bed drawn where it lies (its centroid angle from the image
+// against series.csv's), in the colours of the run's scale.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -17,7 +19,7 @@ namespace fs = std::filesystem;
 namespace {
 
 // The smoke-test drum (30 mm x 5 mm, 20 rpm) with 300 beads, a short settle and 0.02 rev.
-std::string small_drum(const std::string& extra_output) {
+std::string small_drum(const std::string& extra_output, const std::string& revolutions = "0.02") {
   std::ifstream in(source_dir() + "/tests/cases/glass_smoke.toml");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   auto edit = [&](const std::string& from, const std::string& to) {
@@ -27,7 +29,7 @@ std::string small_drum(const std::string& extra_output) {
   };
   edit("count = 1781", "count = 300");
   edit("steps = 8000", "steps = 3000");
-  edit("revolutions = 0.12", "revolutions = 0.02");
+  edit("revolutions = 0.12", "revolutions = " + revolutions);
   edit("snapshot_every_s = 0.2", "snapshot_every_s = 0.05" + extra_output);
   edit("trace = true", "trace = false");
   return text;
@@ -43,13 +45,15 @@ std::set<std::string> names_in(const std::string& dir, const std::string& ext) {
 
 }  // namespace
 
-TEST(SpeedImages, OnePerSnapshotInDrumRunsShowingTheBedBelowTheAxis) {
+TEST(SpeedImages, OnePerSnapshotInDrumRunsShowingTheBedWhereItLies) {
   const std::string out = fresh_dir("speed_images_on");
   fs::create_directories(out);
   const std::string case_path = out + "_case.toml";
-  std::ofstream(case_path) << small_drum("");
+  // 0.1 rev at 20 rpm: the drum has turned 36 degrees, the bed is lifted on the rising side (+x)
+  std::ofstream(case_path) << small_drum("\nspeed_image_size_px = 400", "0.1");
   const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
   ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("speed_images/"), std::string::npos) << r.output;
 
   const auto vtu = names_in(out + "/snapshots", ".vtu"), png = names_in(out + "/speed_images", ".png");
   ASSERT_GE(vtu.size(), 3u);
@@ -59,22 +63,56 @@ TEST(SpeedImages, OnePerSnapshotInDrumRunsShowingTheBedBelowTheAxis) {
 
   const cv::Mat img = cv::imread(out + "/speed_images/" + *png.rbegin() + ".png", cv::IMREAD_COLOR);
   ASSERT_FALSE(img.empty());
-  EXPECT_EQ(img.cols, 512 + 130);  // frame_size_px (default 512) and the colour bar's band
-  EXPECT_EQ(img.rows, 512 + 30);   // and the title's
-  // Coloured pixels (neither grey nor white) of the drum's square: the beads; a settled bed lies
-  // below the axis (row 30 + 255.5).
-  int below = 0, above = 0;
+  EXPECT_EQ(img.cols, 400 + 130);  // speed_image_size_px and the colour bar's band
+  EXPECT_EQ(img.rows, 400 + 30);   // and the title's
+  // The beads are the coloured pixels (neither grey nor white) of the drum's square; the centroid
+  // angle of their area, 90 + atan2(x, -y) about the drum's centre (pixel 199.5, 30 + 199.5),
+  // against the last row of series.csv (mass-weighted): a mirrored or flipped image is 30 or more
+  // degrees off.
+  double n = 0.0, sx = 0.0, sy = 0.0;
+  for (int row = 30; row < img.rows; ++row)
+    for (int col = 0; col < 400; ++col) {
+      const auto p = img.at<cv::Vec3b>(row, col);
+      if (p[0] == p[1] && p[1] == p[2]) continue;
+      n += 1.0;
+      sx += col - 199.5;
+      sy += (30 + 199.5) - row;
+    }
+  ASSERT_GT(n, 2000.0);  // 300 beads of 1 mm in a 30 mm drum at 12.3 px/mm: about 115 px each
+  const double alpha_image = 90.0 + std::atan2(sx / n, -sy / n) * 180.0 / M_PI;
+  auto series = read_csv(out + "/series.csv");
+  const double alpha_run = to_numbers(series["alpha_deg"]).back();
+  EXPECT_GT(alpha_run, 100.0) << "the bed must be lifted for the comparison to see a mirror";
+  EXPECT_NEAR(alpha_image, alpha_run, 3.0);
+  const std::string log = slurp(out + "/run.log");
+  EXPECT_NE(log.find("speed images at each snapshot (400 px, colour scale 0 to 0.09905 m/s)"), std::string::npos)
+      << "sqrt(g d) of 1 mm beads, above twice the rim speed (62.8 mm/s)";
+}
+
+// Every moving bead above a scale of 1 nm/s takes the top colour: the run hands its scale to the
+// image (a unit or factor error between the two would leave the beads in lower colours).
+TEST(SpeedImages, BeadsFasterThanTheScaleTakeItsTopColour) {
+  const std::string out = fresh_dir("speed_images_top");
+  fs::create_directories(out);
+  const std::string case_path = out + "_case.toml";
+  std::ofstream(case_path) << small_drum("\nspeed_image_max_m_s = 1e-9");
+  const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const auto png = names_in(out + "/speed_images", ".png");
+  ASSERT_FALSE(png.empty());
+  const cv::Mat img = cv::imread(out + "/speed_images/" + *png.rbegin() + ".png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(img.empty());
+  const cv::Vec3b top(37, 231, 253);  // viridis at 1 (blue, green, red)
+  int coloured = 0, at_top = 0;
   for (int row = 30; row < img.rows; ++row)
     for (int col = 0; col < 512; ++col) {
       const auto p = img.at<cv::Vec3b>(row, col);
       if (p[0] == p[1] && p[1] == p[2]) continue;
-      (row > 30 + 255.5 ? below : above) += 1;
+      ++coloured;
+      at_top += p == top;
     }
-  EXPECT_GT(below, 5000);  // 300 beads of 1 mm in a 30 mm drum drawn at 15.7 px/mm: each ~190 px
-  EXPECT_LT(above, below / 10);
-  const std::string log = slurp(out + "/run.log");
-  EXPECT_NE(log.find("speed images at each snapshot (colour scale 0 to 0.06283 m/s)"), std::string::npos)
-      << "twice the rim speed, 2 x 20 rpm x 2 pi / 60 x 15 mm";
+  ASSERT_GT(coloured, 2000);
+  EXPECT_GT(at_top, 0.8 * coloured) << "(the rest: the discs' anti-aliased edges)";
 }
 
 TEST(SpeedImages, NoneWhenSwitchedOffAndTheScaleKeyThenWarned) {

@@ -580,6 +580,20 @@ TEST(CaseParser, SpeedImageKeysAreChecked) {
   ASSERT_TRUE(c.output.speed_image_max_m_s);
   EXPECT_DOUBLE_EQ(*c.output.speed_image_max_m_s, 0.02);
   EXPECT_FALSE(c.output.speed_images);
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_image_size_px = 100\n", "speed_image_size_px");
+}
+
+// The top of the speed images' colour scale, one function for the run and its report: the larger
+// of twice the rim speed and sqrt(g d) (1 mm beads, D = 100 mm).
+TEST(CaseParser, SpeedImageScaleIsTheLargerOfTwiceTheRimSpeedAndTheFallOverOneDiameter) {
+  auto scale = [](const std::string& text) { return case_file::speed_image_scale_m_s(case_file::parse_case(text, "c").config); };
+  EXPECT_NEAR(scale(kSpecExample), std::sqrt(9.81 * 1e-3), 1e-12);  // 2 x rim = 5.2 mm/s at 0.5 rpm
+  EXPECT_NEAR(scale(edit(kSpecExample, "rpm = 0.5", "rpm = 60.0")), 2.0 * 60.0 * 2.0 * M_PI / 60.0 * 0.05, 1e-12);
+  EXPECT_NEAR(scale(edit(kSpecExample, "rpm = 0.5", "rpm = -60.0")), 2.0 * 2.0 * M_PI * 0.05, 1e-12);
+  EXPECT_NEAR(scale(edit(kSpecExample, "gravity_m_s2 = [0.0, -9.81, 0.0]", "gravity_m_s2 = [0.0, 0.0, 0.0]")),
+              2.0 * 0.5 * 2.0 * M_PI / 60.0 * 0.05, 1e-12);
+  EXPECT_NEAR(scale(edit(kSpecExample, "trace = false", "trace = false\nspeed_image_max_m_s = 0.3")), 0.3, 0.0);
+  EXPECT_EQ(case_file::speed_image_scale_m_s(case_file::parse_case(kScene, "c").config), 0.0);  // no drum
 }
 
 TEST(CaseParser, SyntaxErrorNamesFileAndLine) {

@@ -124,18 +124,58 @@ TEST(SpeedImage, ColourBarRunsFromZeroAtTheBottomToTheTopOfTheScale) {
   const double mid_col = 0.5 * (g.bar_col0 + g.bar_col1);
   EXPECT_EQ(pixel(img, mid_col, g.bar_row_bottom), speed_colour_bgr(0.0));
   EXPECT_EQ(pixel(img, mid_col, g.bar_row_top), speed_colour_bgr(1.0));
-  EXPECT_EQ(pixel(img, mid_col, 0.5 * (g.bar_row_top + g.bar_row_bottom)), speed_colour_bgr(0.5));
+  const int mid_row = (g.bar_row_top + g.bar_row_bottom) / 2;
+  EXPECT_EQ(pixel(img, mid_col, mid_row),
+            speed_colour_bgr(static_cast<double>(g.bar_row_bottom - mid_row) / (g.bar_row_bottom - g.bar_row_top)));
   EXPECT_GT(g.bar_col0, 300);  // right of the drum's square
   EXPECT_LT(g.bar_col1, g.width);
 }
 
-TEST(SpeedImage, DefaultScaleIsTwiceTheRimSpeed) {
-  // R = 0.1 m at 0.5 rpm: rim 0.5 * 2 pi / 60 * 0.1 = 5.236e-3 m/s
-  EXPECT_NEAR(biodem::output::default_speed_scale_m_s(0.1, 0.5), 2.0 * 0.5 * 2.0 * std::numbers::pi / 60.0 * 0.1,
-              1e-15);
-  EXPECT_NEAR(biodem::output::default_speed_scale_m_s(0.1, 0.5), 0.0104720, 1e-7);
-  EXPECT_EQ(biodem::output::default_speed_scale_m_s(0.1, -0.5), biodem::output::default_speed_scale_m_s(0.1, 0.5));
-  EXPECT_EQ(biodem::output::default_speed_scale_m_s(0.1, 0.0), 0.1);
+TEST(SpeedImage, PeriodicDepthIsTakenWithinOnePeriod) {
+  // Two spheres at the same place: A at z = 4 mm, B at z = 6.5 mm, which in a drum of width 5 mm
+  // with a periodic axis is z = 1.5 mm, behind A. Without the period B would be drawn on top.
+  SpeedImageOptions o;
+  o.drum_px = 200;
+  o.max_speed_m_s = 1.0;
+  const auto g = speed_image_geometry(0.1, o);
+  Scene s;
+  s.add(0.02, -0.05, 0.004, 0.01, 0.25);
+  s.add(0.02, -0.05, 0.0065, 0.01, 0.75);
+  const double col = g.centre_col + 0.02 * g.px_per_m, row = g.centre_row + 0.05 * g.px_per_m;
+  EXPECT_EQ(pixel(s.render(o), col, row), speed_colour_bgr(0.75));
+  o.period_z_m = 0.005;
+  EXPECT_EQ(pixel(s.render(o), col, row), speed_colour_bgr(0.25));
+  // below zero too: -1 mm is 4 mm, in front of 1.5 mm
+  s.z = {0.0015, -0.001};
+  EXPECT_EQ(pixel(s.render(o), col, row), speed_colour_bgr(0.75));
+}
+
+TEST(SpeedImage, NonFiniteSpheresAreLeftOutWithoutDisturbingTheOrder) {
+  SpeedImageOptions o;
+  o.drum_px = 200;
+  o.max_speed_m_s = 1.0;
+  const auto g = speed_image_geometry(0.1, o);
+  Scene s;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (int k = 0; k < 40; ++k) {  // NaN depths mixed in among spheres of one place
+    s.add(-0.02, 0.03, k % 3 == 0 ? nan : 0.0001 * k, 0.01, k % 3 == 0 ? 0.0 : 0.01 * k);
+    s.add(0.05, 0.0, 0.0, 0.01, k == 7 ? nan : 0.5);  // a NaN speed: not drawn
+  }
+  const cv::Mat img = s.render(o);
+  // the nearest finite one (k = 38, z = 3.8 mm) on top
+  EXPECT_EQ(pixel(img, g.centre_col - 0.02 * g.px_per_m, g.centre_row - 0.03 * g.px_per_m), speed_colour_bgr(0.01 * 38));
+  EXPECT_EQ(pixel(img, g.centre_col + 0.05 * g.px_per_m, g.centre_row), speed_colour_bgr(0.5));
+}
+
+TEST(SpeedImage, BarHasATriangleForTheSpeedsAboveTheScale) {
+  SpeedImageOptions o;
+  o.drum_px = 256;
+  o.max_speed_m_s = 0.2;
+  const cv::Mat img = Scene{}.render(o);
+  const auto g = speed_image_geometry(0.1, o);
+  const double mid_col = 0.5 * (g.bar_col0 + g.bar_col1);
+  EXPECT_EQ(pixel(img, mid_col, g.bar_row_top - 6), speed_colour_bgr(1.0));
+  EXPECT_EQ(pixel(img, mid_col, g.bar_row_top - 20), (Bgr{255, 255, 255}));
 }
 
 TEST(SpeedImage, BadArgumentsAreRefused) {
