@@ -35,6 +35,19 @@ std::string small_drum(const std::string& extra_output, const std::string& revol
   return text;
 }
 
+/// Runs the small drum with `extra_output` in [output] into a fresh folder; returns the folder.
+std::string run_small_drum(const std::string& name, const std::string& extra_output,
+                           const std::string& revolutions = "0.02") {
+  const std::string out = fresh_dir(name);
+  fs::create_directories(out);
+  const std::string case_path = out + "_case.toml";
+  std::ofstream(case_path) << small_drum(extra_output, revolutions);
+  const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
+  EXPECT_EQ(r.status, 0) << r.output;
+  std::ofstream(out + "_output.txt") << r.output;
+  return out;
+}
+
 std::set<std::string> names_in(const std::string& dir, const std::string& ext) {
   std::set<std::string> out;
   if (!fs::exists(dir)) return out;
@@ -46,14 +59,9 @@ std::set<std::string> names_in(const std::string& dir, const std::string& ext) {
 }  // namespace
 
 TEST(SpeedImages, OnePerSnapshotInDrumRunsShowingTheBedWhereItLies) {
-  const std::string out = fresh_dir("speed_images_on");
-  fs::create_directories(out);
-  const std::string case_path = out + "_case.toml";
   // 0.1 rev at 20 rpm: the drum has turned 36 degrees, the bed is lifted on the rising side (+x)
-  std::ofstream(case_path) << small_drum("\nspeed_image_size_px = 400", "0.1");
-  const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
-  ASSERT_EQ(r.status, 0) << r.output;
-  EXPECT_NE(r.output.find("speed_images/"), std::string::npos) << r.output;
+  const std::string out = run_small_drum("speed_images_on", "\nspeed_image_size_px = 400", "0.1");
+  EXPECT_NE(slurp(out + "_output.txt").find("speed_images/"), std::string::npos);  // the done: line
 
   const auto vtu = names_in(out + "/snapshots", ".vtu"), png = names_in(out + "/speed_images", ".png");
   ASSERT_GE(vtu.size(), 3u);
@@ -92,12 +100,7 @@ TEST(SpeedImages, OnePerSnapshotInDrumRunsShowingTheBedWhereItLies) {
 // Every moving bead above a scale of 1 nm/s takes the top colour: the run hands its scale to the
 // image (a unit or factor error between the two would leave the beads in lower colours).
 TEST(SpeedImages, BeadsFasterThanTheScaleTakeItsTopColour) {
-  const std::string out = fresh_dir("speed_images_top");
-  fs::create_directories(out);
-  const std::string case_path = out + "_case.toml";
-  std::ofstream(case_path) << small_drum("\nspeed_image_max_m_s = 1e-9");
-  const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
-  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string out = run_small_drum("speed_images_top", "\nspeed_image_max_m_s = 1e-9");
   const auto png = names_in(out + "/speed_images", ".png");
   ASSERT_FALSE(png.empty());
   const cv::Mat img = cv::imread(out + "/speed_images/" + *png.rbegin() + ".png", cv::IMREAD_COLOR);
@@ -116,13 +119,8 @@ TEST(SpeedImages, BeadsFasterThanTheScaleTakeItsTopColour) {
 }
 
 TEST(SpeedImages, NoneWhenSwitchedOffAndTheScaleKeyThenWarned) {
-  const std::string out = fresh_dir("speed_images_off");
-  fs::create_directories(out);
-  const std::string case_path = out + "_case.toml";
-  std::ofstream(case_path) << small_drum("\nspeed_images = false\nspeed_image_max_m_s = 0.5");
-  const auto r = run_command(biodem_exe() + " run " + case_path + " --out " + out + " --threads 1");
-  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string out = run_small_drum("speed_images_off", "\nspeed_images = false\nspeed_image_max_m_s = 0.5");
   EXPECT_FALSE(fs::exists(out + "/speed_images"));
   EXPECT_GE(names_in(out + "/snapshots", ".vtu").size(), 3u);
-  EXPECT_NE(r.output.find("[output].speed_image_max_m_s is not used"), std::string::npos) << r.output;
+  EXPECT_NE(slurp(out + "_output.txt").find("[output].speed_image_max_m_s is not used"), std::string::npos);
 }

@@ -25,6 +25,13 @@ Bgr pixel(const cv::Mat& img, double col, double row) {
   return {p[0], p[1], p[2]};
 }
 
+SpeedImageOptions options(int drum_px, double max_speed_m_s) {
+  SpeedImageOptions o;
+  o.drum_px = drum_px;
+  o.max_speed_m_s = max_speed_m_s;
+  return o;
+}
+
 struct Scene {
   std::vector<double> x, y, z, r, v;
   void add(double xi, double yi, double zi, double ri, double vi) {
@@ -63,9 +70,7 @@ TEST(SpeedImage, ColourMapHasTheViridisStopsAndClipsOutsideTheScale) {
 }
 
 TEST(SpeedImage, SpheresLandWhereTheyAreInTheirSpeedsColour) {
-  SpeedImageOptions o;
-  o.drum_px = 256;
-  o.max_speed_m_s = 2.0;
+  SpeedImageOptions o = options(256, 2.0);
   Scene s;
   s.add(0.05, 0.0, 0.0, 0.01, 0.0);   // right of the axis, at rest
   s.add(0.0, 0.05, 0.0, 0.01, 1.0);   // above the axis, half the scale
@@ -91,9 +96,7 @@ TEST(SpeedImage, SpheresLandWhereTheyAreInTheirSpeedsColour) {
 }
 
 TEST(SpeedImage, TheNearerOfTwoOverlappingSpheresIsSeenWhateverTheOrder) {
-  SpeedImageOptions o;
-  o.drum_px = 200;
-  o.max_speed_m_s = 1.0;
+  SpeedImageOptions o = options(200, 1.0);
   const auto g = speed_image_geometry(0.1, o);
   for (int order = 0; order < 2; ++order) {
     Scene s;
@@ -116,9 +119,7 @@ TEST(SpeedImage, TheNearerOfTwoOverlappingSpheresIsSeenWhateverTheOrder) {
 }
 
 TEST(SpeedImage, ColourBarRunsFromZeroAtTheBottomToTheTopOfTheScale) {
-  SpeedImageOptions o;
-  o.drum_px = 300;
-  o.max_speed_m_s = 0.0105;
+  SpeedImageOptions o = options(300, 0.0105);
   const cv::Mat img = Scene{}.render(o);
   const auto g = speed_image_geometry(0.1, o);
   const double mid_col = 0.5 * (g.bar_col0 + g.bar_col1);
@@ -134,9 +135,7 @@ TEST(SpeedImage, ColourBarRunsFromZeroAtTheBottomToTheTopOfTheScale) {
 TEST(SpeedImage, PeriodicDepthIsTakenWithinOnePeriod) {
   // Two spheres at the same place: A at z = 4 mm, B at z = 6.5 mm, which in a drum of width 5 mm
   // with a periodic axis is z = 1.5 mm, behind A. Without the period B would be drawn on top.
-  SpeedImageOptions o;
-  o.drum_px = 200;
-  o.max_speed_m_s = 1.0;
+  SpeedImageOptions o = options(200, 1.0);
   const auto g = speed_image_geometry(0.1, o);
   Scene s;
   s.add(0.02, -0.05, 0.004, 0.01, 0.25);
@@ -151,9 +150,7 @@ TEST(SpeedImage, PeriodicDepthIsTakenWithinOnePeriod) {
 }
 
 TEST(SpeedImage, NonFiniteSpheresAreLeftOutWithoutDisturbingTheOrder) {
-  SpeedImageOptions o;
-  o.drum_px = 200;
-  o.max_speed_m_s = 1.0;
+  SpeedImageOptions o = options(200, 1.0);
   const auto g = speed_image_geometry(0.1, o);
   Scene s;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -168,9 +165,7 @@ TEST(SpeedImage, NonFiniteSpheresAreLeftOutWithoutDisturbingTheOrder) {
 }
 
 TEST(SpeedImage, BarHasATriangleForTheSpeedsAboveTheScale) {
-  SpeedImageOptions o;
-  o.drum_px = 256;
-  o.max_speed_m_s = 0.2;
+  SpeedImageOptions o = options(256, 0.2);
   const cv::Mat img = Scene{}.render(o);
   const auto g = speed_image_geometry(0.1, o);
   const double mid_col = 0.5 * (g.bar_col0 + g.bar_col1);
