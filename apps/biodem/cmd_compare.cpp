@@ -128,6 +128,9 @@ int run_compare(const CompareOptions& o) {
   if (!o.names.empty() && o.names.size() != o.inputs.size())
     throw Error("compare: --names has " + std::to_string(o.names.size()) + " names for " +
                 std::to_string(o.inputs.size()) + " samples");
+  if (o.inputs.size() == 1)
+    std::cerr << "warning: compare: one sample: its medians and spans are listed, and every rank is I (nothing to rank it "
+                 "against)\n";
 
   analysis::FlowabilityOptions fo;
   if (o.min_drop_opt->count()) fo.events.min_drop_deg = o.min_drop_deg;

@@ -200,6 +200,12 @@ TEST(AnalysisCli, CompareRanksSamples) {
   const auto bad = test::run_biodem("compare " + test::quote(dir / "raw") + " --names a b");
   EXPECT_EQ(bad.status, 2);
   EXPECT_TRUE(contains(bad.output, "--names")) << bad.output;
+
+  // One sample: listed, ranked I, and said to have nothing to rank against.
+  const auto one = test::run_biodem("compare " + test::quote(dir / "raw") + " --no-plots --out " + test::quote(dir / "one"));
+  EXPECT_EQ(one.status, 0) << one.output;
+  EXPECT_TRUE(contains(one.output, "warning: compare: one sample")) << one.output;
+  EXPECT_FALSE(contains(r.output, "warning: compare: one sample")) << r.output;
 }
 
 // A folder of frames: flat beds at known tilts (alpha = 90 deg + tilt within 0.5 deg), one
