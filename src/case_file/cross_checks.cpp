@@ -50,9 +50,15 @@ void CaseParser::check_unused() {
 #else
   const bool speed_images = false;  // (the lean build has none; `run` refuses speed_images = true)
 #endif
-  if (!speed_images && (cfg_.output.speed_image_max_m_s || cfg_.output.speed_image_size_px != config::Output{}.speed_image_size_px))
-    warn(std::string("[output].") + (cfg_.output.speed_image_max_m_s ? "speed_image_max_m_s" : "speed_image_size_px") +
-         " is not used: no speed images (they need a [drum], speed_images not false and a build with OpenCV)");
+  if (!speed_images) {
+    const char* unused = cfg_.output.speed_image_max_m_s ? "speed_image_max_m_s"
+                         : cfg_.output.speed_image_every_s ? "speed_image_every_s"
+                         : cfg_.output.speed_image_size_px != config::Output{}.speed_image_size_px ? "speed_image_size_px"
+                                                                                                   : nullptr;
+    if (unused)
+      warn(std::string("[output].") + unused +
+           " is not used: no speed images (they need a [drum], speed_images not false and a build with OpenCV)");
+  }
   std::set<std::size_t> used;
   for (const auto& p : cfg_.populations) used.insert(p.shape);
   for (const auto& p : cfg_.particles) used.insert(p.shape);

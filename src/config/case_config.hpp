@@ -186,6 +186,7 @@ struct Output {
   std::optional<bool> speed_images;
   std::optional<double> speed_image_max_m_s;
   std::uint32_t speed_image_size_px = 512;
+  std::optional<double> speed_image_every_s;  // absent: at each snapshot
 };
 
 /// Model options of [contact] that apply to every pair.

@@ -103,7 +103,8 @@ constexpr std::uint64_t kDeviceRun = 200;
 
 bool Runner::host_needs_state_at(std::uint64_t n) const {
   return n % sample_every_ == 0 || (snapshot_every_ && n % snapshot_every_ == 0) ||
-         (frame_every_ && n % frame_every_ == 0) || (checkpoint_every_ && n % checkpoint_every_ == 0) ||
+         (frame_every_ && n % frame_every_ == 0) || (speed_image_every_ && n % speed_image_every_ == 0) ||
+         (checkpoint_every_ && n % checkpoint_every_ == 0) ||
          (abort_at_step() && n == abort_at_step()) || (signal_at_step() && n == signal_at_step());
 }
 
@@ -163,6 +164,8 @@ void Runner::after_step() {
   if (n % sample_every_ == 0) sample();
   if (snapshot_every_ && n % snapshot_every_ == 0) snapshot();
   if (frame_every_ && n % frame_every_ == 0) frame();
+  // (image k after step (k + 1) n, as the frames)
+  if (speed_image_every_ && n % speed_image_every_ == 0) speed_image(n / speed_image_every_ - 1);
   if (checkpoint_every_ && n % checkpoint_every_ == 0) checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
   if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
@@ -214,6 +217,8 @@ RunSummary Runner::run() {
   speed_images_ = built_.drum && cfg_.output.speed_images.value_or(true);
   if (speed_images_) {
     speed_scale_m_s_ = case_file::speed_image_scale_m_s(cfg_);  // (the number run.log states)
+    if (cfg_.output.speed_image_every_s)
+      speed_image_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.speed_image_every_s, cfg_.run.dt_s));
     fs::create_directories(opt_.out_dir + "/speed_images");
   }
 #endif

@@ -100,27 +100,8 @@ void Runner::snapshot() {
   c.ints = {{"body_id", body}, {"material", material}};
   output::write_vtu(opt_.out_dir + "/snapshots/" + name, c);
   pvd_->add(sim_.time_s(), std::string("snapshots/") + name);
-#if BIODEM_HAVE_OPENCV
-  if (speed_images_) {  // the same cross-section coloured by speed, numbered as the snapshot
-    std::vector<double> x(s.size()), y(s.size()), z(s.size());
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      x[i] = s.position_m[i].x;
-      y[i] = s.position_m[i].y;
-      z[i] = s.position_m[i].z;
-    }
-    output::SpeedImageOptions so;
-    so.drum_px = static_cast<int>(cfg_.output.speed_image_size_px);
-    so.max_speed_m_s = speed_scale_m_s_;
-    if (cfg_.drum->axial_boundary == config::AxialBoundary::Periodic) so.period_z_m = cfg_.drum->width_m;
-    char title[128];
-    std::snprintf(title, sizeof title, "t = %.4f s, revolution %.4f, %zu spheres",
-                  config::whole_steps_time(sim_.time_s(), sim_.dt_s()), revolution(), s.size());
-    so.title = title;
-    std::snprintf(name, sizeof name, "speed_%06zu.png", snapshot_index_);
-    output::write_png(opt_.out_dir + "/speed_images/" + name,
-                      output::render_speed_image(x, y, z, s.radius_m, speed, built_.drum->radius_m(), so));
-  }
-#endif
+  // the drum seen from its end coloured by speed, numbered as the snapshot (unless it has a cadence of its own)
+  if (speed_images_ && !speed_image_every_) speed_image(snapshot_index_);
 
   std::snprintf(name, sizeof name, "bodies_%06zu.vtu", snapshot_index_);
   output::PointCloud cb;
@@ -142,6 +123,33 @@ void Runner::snapshot() {
   output::write_vtu(opt_.out_dir + "/bodies/" + name, cb);
   pvd_bodies_->add(sim_.time_s(), std::string("bodies/") + name);
   ++snapshot_index_;
+}
+
+void Runner::speed_image(std::size_t index) {
+#if BIODEM_HAVE_OPENCV
+  sync(false);
+  const auto& s = sim_.spheres();
+  std::vector<double> x(s.size()), y(s.size()), z(s.size()), speed(s.size());
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    x[i] = s.position_m[i].x;
+    y[i] = s.position_m[i].y;
+    z[i] = s.position_m[i].z;
+    speed[i] = norm(s.velocity_m_s[i]);
+  }
+  output::SpeedImageOptions so;
+  so.drum_px = static_cast<int>(cfg_.output.speed_image_size_px);
+  so.max_speed_m_s = speed_scale_m_s_;
+  if (cfg_.drum->axial_boundary == config::AxialBoundary::Periodic) so.period_z_m = cfg_.drum->width_m;
+  char text[128];
+  std::snprintf(text, sizeof text, "t = %.4f s, revolution %.4f, %zu spheres",
+                config::whole_steps_time(sim_.time_s(), sim_.dt_s()), revolution(), s.size());
+  so.title = text;
+  std::snprintf(text, sizeof text, "speed_%06zu.png", index);
+  output::write_png(opt_.out_dir + "/speed_images/" + text,
+                    output::render_speed_image(x, y, z, s.radius_m, speed, built_.drum->radius_m(), so));
+#else
+  (void)index;
+#endif
 }
 
 void Runner::frame() {

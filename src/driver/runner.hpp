@@ -67,6 +67,8 @@ class Runner {
   void write_responses();
   void run_phase(const PhasePlan& p, std::size_t index, std::uint64_t start_step, std::uint64_t below);
   void frame();
+  /// speed_images/speed_NNNNNN.png of the current state, NNNNNN = index.
+  void speed_image(std::size_t index);
   void checkpoint();
   void resume();
   void after_step();
@@ -106,8 +108,9 @@ class Runner {
   std::ofstream log_;
   std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
   std::size_t frame_index_ = 0;
-  bool speed_images_ = false;   // a speed image at each snapshot ([output] speed_images)
-  double speed_scale_m_s_ = 0;  // the top of its colour scale
+  bool speed_images_ = false;   // speed images ([output] speed_images): at each snapshot, or
+  std::uint64_t speed_image_every_ = 0;  // every this many steps ([output] speed_image_every_s)
+  double speed_scale_m_s_ = 0;  // the top of their colour scale
   std::uint64_t last_sample_step_ = ~std::uint64_t{0}, last_snapshot_step_ = ~std::uint64_t{0};
 #if BIODEM_HAVE_OPENCV
   analysis::SurfaceParams surface_params_{};

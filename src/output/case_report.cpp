@@ -310,7 +310,9 @@ std::string describe_case(const config::CaseConfig& c) {
   if (c.drum) {
 #if BIODEM_HAVE_OPENCV
     if (o.speed_images.value_or(true))
-      os << ", speed images at each snapshot (" << o.speed_image_size_px << " px, colour scale 0 to "
+      os << ", speed images "
+         << (o.speed_image_every_s ? "every " + num(*o.speed_image_every_s) + " s" : std::string("at each snapshot"))
+         << " (" << o.speed_image_size_px << " px, colour scale 0 to "
          << num(case_file::speed_image_scale_m_s(c)) << " m/s)";
     else
       os << ", speed images off";

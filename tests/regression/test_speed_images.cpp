@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -116,6 +118,26 @@ TEST(SpeedImages, BeadsFasterThanTheScaleTakeItsTopColour) {
     }
   ASSERT_GT(coloured, 2000);
   EXPECT_GT(at_top, 0.8 * coloured) << "(the rest: the discs' anti-aliased edges)";
+}
+
+// With a cadence of their own (as the frames: image k after step (k + 1) n, n = round(0.01 s / dt)
+// = 667), not at the snapshots.
+TEST(SpeedImages, AtTheirOwnCadenceWhenGivenOne) {
+  const std::string out = run_small_drum("speed_images_every", "\nspeed_image_every_s = 0.01");
+  const std::string said = slurp(out + "_output.txt");
+  const auto at = said.find("done: ");
+  ASSERT_NE(at, std::string::npos) << said;
+  const std::uint64_t steps = std::stoull(said.substr(at + 6));
+  ASSERT_GT(steps, 6000u);
+  std::set<std::string> expected;
+  char name[32];
+  for (std::uint64_t k = 0; (k + 1) * 667 <= steps; ++k) {
+    std::snprintf(name, sizeof name, "speed_%06llu", static_cast<unsigned long long>(k));
+    expected.insert(name);
+  }
+  EXPECT_EQ(names_in(out + "/speed_images", ".png"), expected);
+  EXPECT_GT(expected.size(), names_in(out + "/snapshots", ".vtu").size());
+  EXPECT_NE(slurp(out + "/run.log").find("speed images every 0.01 s"), std::string::npos);
 }
 
 TEST(SpeedImages, NoneWhenSwitchedOffAndTheScaleKeyThenWarned) {

@@ -581,6 +581,10 @@ TEST(CaseParser, SpeedImageKeysAreChecked) {
   EXPECT_DOUBLE_EQ(*c.output.speed_image_max_m_s, 0.02);
   EXPECT_FALSE(c.output.speed_images);
   EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_image_size_px = 100\n", "speed_image_size_px");
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nspeed_image_every_s = 0.0\n", "speed_image_every_s");
+  const auto lc = case_file::parse_case(kScene + "\n[output]\nspeed_image_every_s = 0.01\n", "c");  // no drum: unused
+  ASSERT_EQ(lc.warnings.size(), 1u);
+  EXPECT_NE(lc.warnings[0].find("[output].speed_image_every_s is not used"), std::string::npos) << lc.warnings[0];
 }
 
 // The top of the speed images' colour scale, one function for the run and its report: the larger
