@@ -34,7 +34,7 @@ void CaseParser::check_something_to_simulate() const {
   if (cfg_.output.frame_every_s && !cfg_.drum)
     fail("[output].frame_every_s: back-lit frames are cross-sections of the drum, and this case has no [drum]");
   if (cfg_.output.speed_images.value_or(false) && !cfg_.drum)
-    fail("[output].speed_images: the speed images are cross-sections of the drum, and this case has no [drum]");
+    fail("[output].speed_images: the speed images are views of the drum from its end, and this case has no [drum]");
 }
 
 void CaseParser::check_unused() {

@@ -894,10 +894,11 @@ TEST(GpuEngine, EntryKernelsHandTheHistoryToTheRowWalk) {
 }
 
 // BIODEM_GPU_FORCES=timed (the default on a GPU): after each upload the runs of steps between
-// list checks go through the scene's candidate sets (in this scene of clumps ten: the entry
+// list checks go through the scene's candidate sets (in this scene of clumps eleven: the entry
 // kernels, also with their sums by the row lanes; the row walk with the row lanes; in one thread
-// per sphere, alone, with the warp's touching contacts shared (also by 2 lanes per sphere), with
-// the body kernel by lanes; with the body update by groups of lanes per body,
+// per sphere, alone, with the warp's touching contacts shared (also by 2 and, since 4 threads per
+// sphere fit in one wave of an H100, 4 lanes per sphere), with the body kernel by lanes; with the
+// body update by groups of lanes per body,
 // ForcesKickDriftGroups, also shared), timed, those far slower dropped after one run; the
 // fastest runs on.
 // Each switch from the entry kernels to the row walk hands over the history (the row walk reads
