@@ -120,6 +120,30 @@ TEST(AnalysisEvents, ExplicitThresholdKeepsOnlyLargerDrops) {
   EXPECT_NEAR(*det.events[0].interval_s, 360 * kDt, 1e-9);
 }
 
+// The threshold's edge (SPEC 6: drops smaller than the threshold are not events): a drop of
+// exactly h is an event, one of 0.75 h is not. Values exact in binary, so the comparison itself is
+// tested: a strict "< max - h" would find no event here.
+TEST(AnalysisEvents, DropOfExactlyTheThresholdIsAnEventASmallerOneIsNot) {
+  const std::vector<double> a{10.0, 11.0, 10.0, 11.0, 12.0, 11.0, 13.0, 14.0, 13.25};
+  std::vector<double> t, rev;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    t.push_back(static_cast<double>(i) * kDt);
+    rev.push_back(kRpm * t.back() / 60.0);
+  }
+  EventParams p;
+  p.min_drop_deg = 1.0;
+  const auto det = detect_events(t, rev, a, kRpm, p);
+  ASSERT_EQ(det.events.size(), 2u);
+  EXPECT_EQ(det.events[0].start_index, 1u);
+  EXPECT_EQ(det.events[0].end_index, 2u);
+  EXPECT_EQ(det.events[0].drop_deg, 1.0);
+  EXPECT_EQ(det.events[1].start_index, 4u);
+  EXPECT_EQ(det.events[1].end_index, 5u);
+  EXPECT_EQ(det.events[1].uas_deg, 12.0);
+  p.min_drop_deg = 1.0 + 1.0 / 1024.0;  // just above both drops: none is an event
+  EXPECT_TRUE(detect_events(t, rev, a, kRpm, p).events.empty());
+}
+
 // A series that begins inside an avalanche: its first maximum is not a real one (no rise of the
 // threshold before it), so that partial event is not counted.
 TEST(AnalysisEvents, SeriesStartingInsideAnAvalancheSkipsThePartialEvent) {

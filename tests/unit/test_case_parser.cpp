@@ -495,6 +495,18 @@ TEST(CaseParser, DtAboveFortyPercentOfRayleighTimeIsRefused) {
   EXPECT_NEAR(case_file::smallest_rayleigh_time_s(lc.config), tr, 1e-12);
 }
 
+// The Rayleigh time is that of a shape's smallest sphere: a clump of a 0.5 mm and a 0.125 mm
+// sphere at dt = 1e-5 s is at 16.5 % of the large sphere's T_R (6.07e-5 s) but at 65.9 % of the
+// small one's (1.52e-5 s), and is refused.
+TEST(CaseParser, RayleighLimitUsesTheSmallestSphereOfAClump) {
+  const double tr_small = contact::rayleigh_time_s(1.25e-4, 2550.0, 5e6, 0.22);
+  EXPECT_NEAR(tr_small, 1.518e-5, 0.001e-5);
+  const std::string clump = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                                 "kind = \"clump\"\nspheres = [[0, 0, 0, 5e-4], [5e-4, 0, 0, 1.25e-4]]");
+  EXPECT_ERROR_NAMES(clump, "[run].dt_s = 1e-05", "65.9 %", "shape b");
+  EXPECT_TRUE(error_of(edit(clump, "dt_s = 1.0e-5", "dt_s = 2.0e-6")).empty());
+}
+
 TEST(CaseParser, DtBetweenTwentyAndFortyPercentWarns) {
   const auto lc = case_file::parse_case(kSpecExample, "case.toml");  // 24.7 %
   ASSERT_EQ(lc.warnings.size(), 1u);
