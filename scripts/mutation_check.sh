@@ -13,7 +13,8 @@
 # MUTATION_WORK (default /tmp/biodem_mutants): the clone (src/), build, logs and results.tsv; an
 # existing clone is reset to this checkout's HEAD and its build is reused.
 # MUTATION_FULL=1: run every test of a tier instead of stopping at the first failure (to list
-# all the tests a mutant fails). Exit status: 0 when no mutant survived, 1 otherwise.
+# all the tests a mutant fails). MUTATION_JOBS: build jobs (default: all cores).
+# Exit status: 0 when no mutant survived, 1 otherwise; 2 when the unmutated build fails its tests.
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 work="${MUTATION_WORK:-/tmp/biodem_mutants}"
