@@ -161,6 +161,25 @@ TEST(ContactGeometry, SphereSphereConventions) {
   expect_vec(g.v_rel, {0, 9.5e-3, -1}, 1e-15);
 }
 
+// A wall is a body of infinite radius and mass: R* = R_i, m* = m_i (SPEC 2.1). i (R 1 mm,
+// 2 mg) sits 0.9 mm above a floor (normal +z), moving at (0.2, 0, -1) m/s and spinning at
+// 10 rad/s about x; the floor's surface moves at (0.05, 0, 0) m/s and turns at 3 rad/s about z.
+// delta = 0.1 mm; the contact point is R_i - delta/2 = 0.95 mm below the centre.
+TEST(ContactGeometry, SphereWallConventions) {
+  const ContactGeometry g =
+      sphere_wall_geometry({0, 0, 1}, 0.9e-3, 1e-3, 2e-6, {0.2, 0, -1}, {10, 0, 0}, {0.05, 0, 0}, {0, 0, 3});
+  expect_vec(g.normal, {0, 0, 1}, 1e-15);
+  expect_rel(g.overlap_m, 1e-4, 1e-9);
+  expect_rel(g.distance_m, 0.9e-3);
+  expect_rel(g.r_eff_m, 1e-3);  // not R/2 (two equal spheres) nor 2R
+  expect_rel(g.m_eff_kg, 2e-6);
+  expect_vec(g.lever_i, {0, 0, -0.95e-3}, 1e-15);
+  // v_rel = v_i + w_i x lever_i - v_wall = (0.2, 0, -1) + (0, 9.5e-3, 0) - (0.05, 0, 0)
+  expect_vec(g.v_rel, {0.15, 9.5e-3, -1}, 1e-15);
+  // w_rel = w_i - w_wall
+  expect_vec(g.w_rel, {10, 0, -3}, 1e-15);
+}
+
 namespace {
 
 /// One configuration for the composed model: approaching at 0.02 m/s, sliding at 0.01 m/s

@@ -38,3 +38,26 @@ TEST(DrumWalls, AllWallsTurnWithTheSameLabAngularVelocity) {
   sim.set_drum_rotation(false);
   for (const auto& w : sim.walls()) EXPECT_EQ(w.geometry.angular_velocity_rad_s, 0.0);
 }
+
+// rpm < 0 turns the drum clockwise seen from +z (SPEC 6's mirror case): the lab angular velocity
+// is -|omega| z and the wall below the axis moves towards -x.
+TEST(DrumWalls, NegativeRpmTurnsClockwise) {
+  scenario::DrumGeometry d;
+  d.rpm = -0.5;
+  EXPECT_NEAR(d.angular_velocity_rad_s(), -0.5 * 2.0 * std::numbers::pi / 60.0, 1e-17);
+  EXPECT_NEAR(d.angular_velocity_rad_s(), -0.0523598775598299, 1e-15);
+  config::Shape s;
+  s.name = "b";
+  s.diameter_m = 1e-3;
+  contact::PairTable pairs(1);
+  sim::Simulation sim({shapes::make_template(s, 1.0)}, {2500.0}, pairs, 1e-5, Vec3{0, -9.81, 0});
+  d.diameter_m = 0.1;
+  d.width_m = 0.005;
+  scenario::add_drum(sim, d);
+  sim.set_drum_rotation(true);
+  for (const auto& w : sim.walls()) {
+    EXPECT_NEAR((w.geometry.angular_velocity_rad_s * w.geometry.normal).z, -0.0523598775598299, 1e-15);
+    const Vec3 v = walls::wall_velocity(w.geometry, Vec3{0.0, -0.05, w.geometry.point_m.z});
+    EXPECT_NEAR(v.x, -0.0523598775598299 * 0.05, 1e-15);
+  }
+}
