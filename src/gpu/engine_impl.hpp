@@ -33,6 +33,7 @@
 
 #include "core/error.hpp"
 #include "gpu/device_engine.hpp"
+#include "gpu/graph_key.hpp"
 #include "gpu/kernels.hpp"
 #include "gpu/timed_choice.hpp"
 #include "neighbor/skin.hpp"
@@ -1721,14 +1722,20 @@ inline void Engine::run_units(std::uint32_t units) {
   // The kernels' arguments are the same every step: a graph is valid until a buffer is
   // reallocated (rows: by generation; the others: invalidate_graphs) or the criterion changes.
   // Longer runs between checks (set_check_every above 64) are launched plainly.
-  constexpr std::uint32_t kMostUnitsInAGraph = 64;
-  const std::uint64_t key = (rows_.generation << 20) | (walk_pack() ? 1u << 16 : 0u) | (body_lanes() ? 1u << 17 : 0u) |
-                            (pack_split() ? 1u << 18 : 0u) |
-                            (queued_checks_ ? 1u << 13 : 0u) | (entries ? 1u << 12 : 0u) |
-                            (walk_single() ? 1u << 11 : 0u) | (sum_lanes() ? 1u << 10 : 0u) |
-                            (two_buffers ? 1u << 14 : 0u) | (fixed_sums_ ? 1u << 15 : 0u) |
-                            (static_cast<std::uint64_t>(units) << 3) | (fused ? 4u : 0u) | (settle_active_ ? 2u : 0u) |
-                            (criterion_.translational ? 1u : 0u);
+  const std::uint64_t key = graph_key(GraphKeyParts{.generation = rows_.generation,
+                                                    .units = units,
+                                                    .translational = criterion_.translational,
+                                                    .settle = settle_active_,
+                                                    .fused = fused,
+                                                    .sum_lanes = sum_lanes(),
+                                                    .walk_single = walk_single(),
+                                                    .entries = entries,
+                                                    .queued_checks = queued_checks_,
+                                                    .two_buffers = two_buffers,
+                                                    .fixed_sums = fixed_sums_,
+                                                    .walk_pack = walk_pack(),
+                                                    .body_lanes_log2 = body_lanes(),
+                                                    .pack_split_log2 = pack_split()});
   const bool timing = tuning_under_way();
   // A trial times the steps only: a graph captured for them is captured before the timer starts.
   if (timing && units <= kMostUnitsInAGraph) graphs_.prepare(key, record);
