@@ -23,6 +23,7 @@ void Runner::write_responses() {
     std::string unit;
   };
   std::vector<Row> rows;
+  std::string warning;  // a response that may not mean what it says
   double d = 0.0;  // profile bin: the largest volume-equivalent diameter of the poured shapes
   for (const auto& p : built_.populations) d = std::max(d, sim_.templates()[p.shape].equivalent_diameter_m());
   if (b.kind == config::BulkTest::Kind::Heap) {
@@ -42,6 +43,15 @@ void Runner::write_responses() {
     rows.push_back({"heap_bodies", static_cast<double>(h.heap_bodies), "-"});
     rows.push_back({"stray_bodies", static_cast<double>(h.stray_bodies), "-"});
     rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
+    rows.push_back({"lifted_bodies", static_cast<double>(h.lifted_bodies), "-"});
+    // Bodies more than a particle size above the heap's top, at rest, can only be held by the
+    // lifted cylinder (cohesion or friction with its material): then the heap is not the
+    // powder's free flow, and a missing heap does not mean that it flowed flat.
+    if (h.lifted_bodies > 0 && static_cast<double>(h.lifted_bodies) > 0.05 * static_cast<double>(bd.size()))
+      warning = "WARNING: heap: " + std::to_string(h.lifted_bodies) + " of " + std::to_string(bd.size()) +
+                " bodies are more than a particle size above the heap's top: held up by the lifted cylinder"
+                " ([heap] cylinder_material = '" + cfg_.materials[b.cylinder_material].name +
+                "': its cohesion or friction with the particles); the heap does not show the powder's angle of repose";
   } else if (b.kind == config::BulkTest::Kind::BulkDensity) {
     const double R = 0.5 * b.container_diameter_m, H = b.container_height_m;
     double m = 0.0, v = 0.0, y_max = -1e300, v_core = 0.0;
@@ -84,6 +94,7 @@ void Runner::write_responses() {
     f << r.name << "," << buf << "," << r.unit << "\n";
   }
   if (!f) throw Error(path + ": cannot write");
+  if (!warning.empty()) log_ << warning << "\n";
   log_ << "responses (" << path << "):";
   for (const auto& r : rows) log_ << " " << r.name << " = " << r.value << " " << r.unit << ";";
   log_ << (last_settled_ ? "" : " WARNING: the scene was not at rest when measured (max_rest_s reached)") << "\n";

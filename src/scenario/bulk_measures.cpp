@@ -84,7 +84,18 @@ HeapResult measure_heap(const std::vector<Vec3>& c, const std::vector<double>& r
     if (uf.find(b) == b && on_plate[b] && size[b] > best) best = size[b], heap = b;
   out.heap_bodies = best;
   out.stray_bodies = nb - best;
-  if (best == 0) return out;
+  // Bodies off the heap whose lowest point is more than a particle size above its top: nothing
+  // on the plate holds them there (the lifted cylinder does, or they are still falling).
+  std::vector<double> low(nb, INFINITY);
+  for (std::size_t i = 0; i < n; ++i) low[sb[i]] = std::min(low[sb[i]], dot(c[i] - origin, up) - r[i]);
+  auto count_lifted = [&] {
+    for (std::uint32_t b = 0; b < nb; ++b)
+      if ((best == 0 || uf.find(b) != heap) && low[b] > out.height_m + o.bin_m) ++out.lifted_bodies;
+  };
+  if (best == 0) {
+    count_lifted();
+    return out;
+  }
 
   // 2. Height, and the base radius from the all-azimuth profile.
   Vec3 e1 = std::abs(up.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
@@ -103,6 +114,7 @@ HeapResult measure_heap(const std::vector<Vec3>& c, const std::vector<double>& r
     pts.push_back({std::hypot(a, b), h, std::atan2(b, a) + std::numbers::pi});
     out.height_m = std::max(out.height_m, h);
   }
+  count_lifted();
   std::vector<double> top;
   for (const Point& p : pts) {
     const auto k = static_cast<std::size_t>(p.rho / o.bin_m);

@@ -50,6 +50,8 @@ struct HeapResult {
   double base_radius_m = 0.0;
   std::size_t heap_bodies = 0;
   std::size_t stray_bodies = 0;
+  std::size_t lifted_bodies = 0;  // strays whose lowest point is more than bin_m above the heap's
+                                  // top (all of it when there is no heap): held up by the rig
 };
 
 /// centres, radii and the body of each sphere (any ids; spheres of one body share it); the plate

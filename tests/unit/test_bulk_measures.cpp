@@ -141,6 +141,35 @@ TEST(HeapAngle, StraysSetNeitherHeightNorRadius) {
   EXPECT_LT(h.height_m, 0.04);  // the needle up the tube (0.1605 m) is not the summit
 }
 
+// Beads held in the lifted cylinder (a ring of 12 at y = 60 mm, above a 35-degree cone 28 mm
+// high) are "lifted": more than a particle size above the heap's top. A stray on the plate and
+// one resting on the heap's flank within a particle size of the top are not. With no heap on the
+// plate at all, every body above one particle size is lifted (the driver warns: the rig held
+// the bed, it did not flow flat).
+TEST(HeapAngle, BodiesHeldAboveTheHeapAreLifted) {
+  Scene s;
+  cone(s, 35.0, 35.0, 0.04, 0.5e-3);
+  const auto clean = measure(s);
+  EXPECT_EQ(clean.lifted_bodies, 0u);
+  std::uint32_t id = 1000000;
+  for (int k = 0; k < 12; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / 12.0;
+    s.add({0.0065 * std::cos(a), 0.06, 0.0065 * std::sin(a)}, 0.5e-3, id++);
+  }
+  s.add({0.07, 0.5e-3, 0.0}, 0.5e-3, id++);                     // rolled away on the plate
+  s.add({0.0, clean.height_m + 0.4e-3, 0.03}, 0.5e-3, id++);   // low, off the heap: not lifted
+  const auto h = measure(s);
+  ASSERT_TRUE(h.valid);
+  EXPECT_EQ(h.height_m, clean.height_m);
+  EXPECT_EQ(h.stray_bodies, 14u);
+  EXPECT_EQ(h.lifted_bodies, 12u);
+  Scene held;  // nothing reached the plate
+  for (int k = 0; k < 12; ++k) held.add({1e-3 * k, 0.05, 0.0}, 0.4e-3);
+  const auto none = measure(held);
+  EXPECT_FALSE(none.valid);
+  EXPECT_EQ(none.lifted_bodies, 12u);
+}
+
 // A flat monolayer (what frictionless spheres leave) is no heap: not valid, angle 0.
 TEST(HeapAngle, MonolayerIsNoHeap) {
   Scene s;
