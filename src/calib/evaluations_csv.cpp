@@ -1,5 +1,6 @@
 #include "calib/evaluations_csv.hpp"
 
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,10 +12,12 @@
 namespace biodem::calib {
 namespace {
 
-std::string g17(double v) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
-  return b;
+// The shortest text that reads back as the same double (0.4, not 0.40000000000000002): exact
+// for --resume and the cache, and what a person expects to read.
+std::string shortest(double v) {
+  char b[64];
+  const auto r = std::to_chars(b, b + sizeof b, v);
+  return std::string(b, r.ptr);
 }
 
 // The cells of a line of a CSV file written by hand or by a spreadsheet: spaces and a carriage
@@ -54,9 +57,9 @@ std::string evaluations_header(const CalibConfig& c) {
 std::string evaluation_row(const Evaluation& e) {
   std::string s = std::to_string(e.generation);
   (s += ',') += std::to_string(e.index);
-  for (double v : e.x) (s += ',') += g17(v);
-  for (double v : e.responses) (s += ',') += g17(v);
-  for (double v : {e.o1, e.o2, e.wall_s}) (s += ',') += g17(v);
+  for (double v : e.x) (s += ',') += shortest(v);
+  for (double v : e.responses) (s += ',') += shortest(v);
+  for (double v : {e.o1, e.o2, e.wall_s}) (s += ',') += shortest(v);
   return s;
 }
 
@@ -128,7 +131,7 @@ std::vector<std::vector<double>> read_parameter_rows(const std::string& path, co
       if (used == 0 || used != f[column[k]].size() || !std::isfinite(v))
         throw Error(where + ": \"" + f[column[k]] + "\" is not a number");
       if (v < p.lower || v > p.upper)
-        throw Error(where + " = " + g17(v) + ": outside the parameter's bounds [" + g17(p.lower) + ", " + g17(p.upper) + "]");
+        throw Error(where + " = " + shortest(v) + ": outside the parameter's bounds [" + shortest(p.lower) + ", " + shortest(p.upper) + "]");
       x.push_back(v);
     }
     rows.push_back(std::move(x));
