@@ -86,6 +86,8 @@ SurfaceFit fit_free_surface(std::span<const double> x_m, std::span<const double>
   const cv::Mat frame = render_backlit_frame(x_m, y_m, radius_m, drum_radius_m, params.raster_px, style);
   FrameParams fp;
   fp.surface = params.image;
+  // (measure_backlit_frame mirrors the profile by the rotation: a clockwise drum's mirror_x)
+  fp.rotation = params.image.mirror_x ? Rotation::cw : Rotation::ccw;
   // The grey levels of a rendered frame are known: the midpoint between the particles' and the
   // lit disc's level is the threshold (what Otsu finds on such a frame, without estimating the
   // back-light: the render costs less per sample).

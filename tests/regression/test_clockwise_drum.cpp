@@ -16,7 +16,10 @@
 using namespace biodem::testing;
 
 namespace {
-double final_alpha(const std::string& name, const std::string& rpm) {
+struct Final {
+  double alpha = 0.0, surface_angle = 0.0;
+};
+Final final_state(const std::string& name, const std::string& rpm) {
   std::ifstream in(source_dir() + "/tests/cases/checkpoint_tiny.toml");
   std::stringstream ss;
   ss << in.rdbuf();
@@ -31,18 +34,25 @@ double final_alpha(const std::string& name, const std::string& rpm) {
   std::ofstream(file) << text;
   const auto r = run_command(biodem_exe() + " run " + file + " --out " + dir + "/out --threads 1");
   EXPECT_EQ(r.status, 0) << r.output;
-  const auto a = to_numbers(read_csv(dir + "/out/series.csv").at("alpha_deg"));
-  return a.empty() ? 0.0 : a.back();
+  const auto csv = read_csv(dir + "/out/series.csv");
+  const auto a = to_numbers(csv.at("alpha_deg")), s = to_numbers(csv.at("surface_angle_deg"));
+  return {a.empty() ? 0.0 : a.back(), s.empty() ? 0.0 : s.back()};
 }
 }  // namespace
 
 TEST(ClockwiseDrum, AlphaRisesForBothDirections) {
-  const double ccw = final_alpha("drum_ccw", "30.0"), cw = final_alpha("drum_cw", "-30.0");
-  std::printf("[measured] final alpha after 0.06 revolution: counter-clockwise %.2f deg, clockwise %.2f deg\n", ccw,
-              cw);
-  EXPECT_GT(ccw, 100.0);
-  EXPECT_GT(cw, 100.0);
-  EXPECT_NEAR(cw, ccw, 5.0);
+  const Final ccw = final_state("drum_ccw", "30.0"), cw = final_state("drum_cw", "-30.0");
+  std::printf("[measured] after 0.06 revolution: alpha counter-clockwise %.2f deg, clockwise %.2f deg; surface "
+              "angle %.2f and %.2f deg\n",
+              ccw.alpha, cw.alpha, ccw.surface_angle, cw.surface_angle);
+  EXPECT_GT(ccw.alpha, 100.0);
+  EXPECT_GT(cw.alpha, 100.0);
+  EXPECT_NEAR(cw.alpha, ccw.alpha, 5.0);
+  // The surface angle too is measured on the rising side (as `video --rotation cw` reads it):
+  // positive for both directions (before the fix the clockwise run wrote the lab's negative one).
+  EXPECT_GT(ccw.surface_angle, 5.0);
+  EXPECT_GT(cw.surface_angle, 5.0);
+  EXPECT_NEAR(cw.surface_angle, ccw.surface_angle, 10.0);
 }
 
 // alpha is the angle of the powder's centre of MASS (SPEC 6): two beads of equal size, one of

@@ -77,6 +77,14 @@ TEST(AnalysisFreeSurface, FlatTiltedBedOfParticles) {
   for (double v : b.x) mx.push_back(-v);
   const auto m = fit_free_surface(mx, b.y, b.r, kR, p);
   EXPECT_NEAR(m.angle_deg, -fit.angle_deg, 1.0);
+  // A clockwise drum (`mirror_x`, as `run` sets for rpm < 0 and `video --rotation cw` does): the
+  // mirrored bed rises on its rising side (-x), so its angle is positive again, the same r^2.
+  SurfaceParams cw = p;
+  cw.image.mirror_x = true;
+  const auto mc = fit_free_surface(mx, b.y, b.r, kR, cw);
+  ASSERT_TRUE(mc.valid);
+  EXPECT_NEAR(mc.angle_deg, fit.angle_deg, 1.0);
+  EXPECT_NEAR(mc.r2, m.r2, 1e-9);
 }
 
 // Particles in flight above the surface and powder stuck on the mantle above the bed are not
