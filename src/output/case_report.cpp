@@ -138,7 +138,9 @@ std::string describe_case(const config::CaseConfig& c) {
     const auto& t = it->second;
     switch (sh.kind) {
       case config::ShapeKind::Sphere:
-        os << "sphere, diameter " << num(2.0 * t.max_radius_m) << " m";
+        // (n_spb and the length as for a needle: one sphere, as long as its diameter)
+        os << "sphere, diameter " << num(2.0 * t.max_radius_m) << " m (n_spb = 1, clump length "
+           << num(2.0 * t.max_radius_m) << " m)";
         break;
       case config::ShapeKind::Needle: {
         const auto g = shapes::needle_geometry(sh.d50_m * cg, sh.aspect_ratio, sh.overlap_factor);
@@ -147,11 +149,17 @@ std::string describe_case(const config::CaseConfig& c) {
            << ", overlap factor " << num(sh.overlap_factor) << ")";
         break;
       }
-      case config::ShapeKind::Clump:
-        os << "clump, " << t.sphere_count() << " spheres, diameters " << num(2.0 * t.min_radius_m);
+      case config::ShapeKind::Clump: {
+        // Its length: the largest distance between two points of its spheres.
+        double length = 2.0 * t.max_radius_m;
+        for (std::size_t a = 0; a < t.sphere_count(); ++a)
+          for (std::size_t b = a + 1; b < t.sphere_count(); ++b)
+            length = std::max(length, norm(t.offsets_m[a] - t.offsets_m[b]) + t.radii_m[a] + t.radii_m[b]);
+        os << "clump, n_spb = " << t.sphere_count() << " spheres, diameters " << num(2.0 * t.min_radius_m);
         if (t.max_radius_m > t.min_radius_m) os << " to " << num(2.0 * t.max_radius_m);
-        os << " m";
+        os << " m, clump length " << num(length) << " m";
         break;
+      }
     }
     os << "\n    volume " << num(t.volume_m3) << " m^3, d_eq " << num(t.equivalent_diameter_m())
        << " m, bounding diameter " << num(2.0 * t.bounding_radius_m) << " m\n";

@@ -53,10 +53,11 @@ struct Sphere {
 
 std::optional<Sphere> find_sphere(const std::string& out, const std::string& name) {
   const std::regex re("  " + name +
-                      R"(: sphere, diameter (\S+) m\n\s+volume (\S+) m\^3, d_eq (\S+) m[^\n]*\n\s+as \w+: mass (\S+) kg)");
+                      R"(: sphere, diameter (\S+) m \(n_spb = 1, clump length (\S+) m\)\n\s+volume (\S+) m\^3, d_eq (\S+) m[^\n]*\n\s+as \w+: mass (\S+) kg)");
   std::smatch m;
   if (!std::regex_search(out, m, re)) return std::nullopt;
-  return Sphere{std::stod(m[1]), std::stod(m[2]), std::stod(m[3]), std::stod(m[4])};
+  EXPECT_EQ(m[1], m[2]) << "a sphere's clump length is its diameter";
+  return Sphere{std::stod(m[1]), std::stod(m[3]), std::stod(m[4]), std::stod(m[5])};
 }
 
 /// First number after `label` in the output (NaN if absent).
@@ -195,6 +196,34 @@ TEST(BiomassCases, PolydisperseRawMixesThreeNeedles) {
   EXPECT_NE(r.output.find("volume fraction 0.5"), std::string::npos);
   // The smallest (2 mm scaled) spheres set the Rayleigh time: dt = 22 % of it (SPEC 8).
   EXPECT_NEAR(dt_percent(r.output), 21.8, 0.1);
+}
+
+// `check` gives n_spb and the clump length for every kind of shape (SPEC 11): a sphere (1, its
+// diameter; find_sphere above) and a free-form clump: spheres of 1 mm and 0.5 mm diameter whose
+// centres are 1.5 mm apart: n_spb = 2, length 1.5 + 0.5 + 0.25 = 2.25 mm.
+TEST(BiomassCases, CheckGivesNSpbAndLengthOfAClump) {
+  std::ifstream in(cases_dir() + "/glass_beads_small.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string from = "kind = \"sphere\"\ndiameter_m = 1.0e-3";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(),
+               "kind = \"clump\"\nspheres = [[0.0, 0.0, 0.0, 0.5e-3], [1.5e-3, 0.0, 0.0, 0.25e-3]]");
+  const std::string dt = "dt_s = 1.5e-5";  // (the small sphere's Rayleigh time is half the bead's)
+  ASSERT_NE(text.find(dt), std::string::npos);
+  text.replace(text.find(dt), dt.size(), "dt_s = 5.0e-6");
+  const std::string d = fresh_dir("check_clump");
+  std::filesystem::create_directories(d);
+  std::ofstream(d + "/case.toml") << text;
+  const auto r = check(d + "/case.toml");
+  ASSERT_EQ(r.status, 0) << r.output;
+  std::smatch m;
+  const std::string out = r.output;
+  ASSERT_TRUE(std::regex_search(out, m, std::regex(R"(bead1mm: clump, n_spb = (\d+) spheres, diameters (\S+) to (\S+) m, clump length (\S+) m)")))
+      << r.output;
+  EXPECT_EQ(m[1], "2");
+  EXPECT_REL(std::stod(m[2]), 0.5e-3, 1e-3);
+  EXPECT_REL(std::stod(m[3]), 1.0e-3, 1e-3);
+  EXPECT_REL(std::stod(m[4]), 2.25e-3, 1e-3);
 }
 
 TEST(BiomassCases, PeriodicRawDrumHasNoEndPlates) {
