@@ -177,7 +177,20 @@ int run_compare(const CompareOptions& o) {
     fo.events.min_drop_deg = samples[noisiest].result.detection.threshold_deg;
     rule = fmt(*fo.events.min_drop_deg, "%.3g") + " deg for every sample (the largest noise-based default: " +
            samples[noisiest].name + ")";
-    for (auto& s : samples) s.result = analysis::analyze_flowability(s.data, fo);
+    for (auto& s : samples) {
+      const std::size_t own = s.result.values[0].size();
+      const double own_h = s.result.detection.threshold_deg;
+      s.result = analysis::analyze_flowability(s.data, fo);
+      // A sample far less noisy than the noisiest (glass beads beside biomass, or a recording
+      // sampled more finely) may lose most of its events to the common threshold: say so.
+      const std::size_t kept = s.result.values[0].size();
+      if (own >= 4 && 2 * kept <= own)  // (half its events or more lost)
+        s.result.warnings.push_back("the common threshold " + fmt(*fo.events.min_drop_deg, "%.3g") + " deg keeps " +
+                                    std::to_string(kept) + " of the " + std::to_string(own) +
+                                    " events found at its own noise-based threshold " + fmt(own_h, "%.3g") +
+                                    " deg: its small events are not counted (--per-sample-threshold keeps them; "
+                                    "docs/analysis.md, section 3)");
+    }
   }
   rule += ", rebound fraction " + fmt(o.rebound_fraction, "%g");
   for (const auto& s : samples)

@@ -387,6 +387,10 @@ TEST(AnalysisCli, CompareUsesOneThresholdForAllSamples) {
   EXPECT_TRUE(contains(r.output, "for every sample (the largest noise-based default: noisy)")) << r.output;
   EXPECT_EQ(count(dir / "one" / "compare.csv", "clean"), "19");
   EXPECT_EQ(count(dir / "one" / "compare.csv", "noisy"), "19");
+  // The clean sample loses half its events to the common threshold: compare warns, naming it.
+  EXPECT_TRUE(contains(r.output, "warning: clean: the common threshold")) << r.output;
+  EXPECT_TRUE(contains(r.output, "keeps 19 of the 38 events")) << r.output;
+  EXPECT_FALSE(contains(r.output, "warning: noisy: the common threshold")) << r.output;
   const auto p = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "noisy") +
                                   " --no-plots --per-sample-threshold --out " + test::quote(dir / "per"));
   ASSERT_EQ(p.status, 0) << p.output;
