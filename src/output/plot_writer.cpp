@@ -256,11 +256,13 @@ Range data_range(const Plot& p, bool x_axis) {
     const double pad = std::max(0.5, 0.05 * std::abs(lo));
     lo -= pad;
     hi += pad;
-  } else if (!x_axis || std::all_of(p.series.begin(), p.series.end(),
-                                     [](const PlotSeries& s) { return s.style == PlotStyle::markers; })) {
+  } else if (!x_axis || std::all_of(p.series.begin(), p.series.end(), [](const PlotSeries& s) {
+               return s.style == PlotStyle::markers || s.style == PlotStyle::step;
+             })) {
     // A little head room above and below the data, none where the user fixed a limit; along x
-    // only in plots of markers alone (a marker at the data's end is not cut in half there; a
-    // line over time runs from edge to edge).
+    // only in plots of markers or steps alone (a marker at the data's end is not cut in half
+    // there, and a cumulative distribution's first and last steps are not drawn on the frame;
+    // a line over time runs from edge to edge).
     const double pad = 0.04 * (hi - lo);
     if (!want_lo) lo -= pad;
     if (!want_hi) hi += pad;
