@@ -42,8 +42,10 @@ void Runner::sample() {
   row.time_s = config::whole_steps_time(sim_.time_s(), sim_.dt_s());
   row.revolution = revolution();
   const bool clockwise = cfg_.drum && cfg_.drum->rpm < 0.0;  // alpha rises with the bed for either direction
-  row.alpha_deg =
-      m > 0.0 ? analysis::centroid_angle_deg(xc / m, yc / m, clockwise) : std::numeric_limits<double>::quiet_NaN();
+  // (a bulk test has no drum and no axis: its alpha would be an angle about the plate's centre,
+  // meaningless, so the column is left empty)
+  row.alpha_deg = m > 0.0 && !cfg_.bulk_test ? analysis::centroid_angle_deg(xc / m, yc / m, clockwise)
+                                             : std::numeric_limits<double>::quiet_NaN();
 #if BIODEM_HAVE_OPENCV  // the free surface is measured on the rendered cross-section (none in the lean build)
   if (built_.drum && sim_.spheres().size() > 0) {
     const auto& s = sim_.spheres();

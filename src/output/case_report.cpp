@@ -82,7 +82,8 @@ std::string phase_line(const config::CaseConfig& c, const config::Phase& p) {
       }
     }
   }
-  os << (p.rotate ? ", drum rotating" : ", drum at rest") << "\n";
+  if (c.drum) os << (p.rotate ? ", drum rotating" : ", drum at rest");  // (a scene without a drum: nothing turns)
+  os << "\n";
   return os.str();
 }
 
