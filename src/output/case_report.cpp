@@ -258,10 +258,20 @@ std::string describe_case(const config::CaseConfig& c) {
       // The fill fraction (bed bulk volume / drum volume) a count implies, at the bulk solid
       // fraction [insertion] assumes (SPEC 11: check prints the count for a fill fraction, and
       // here the converse).
-      if (ins.count)
+      if (ins.count) {
         os << "; a fill fraction of " << num(100.0 * solid / ins.bulk_solid_fraction, 3) << " % at bulk solid fraction "
            << num(ins.bulk_solid_fraction) << " ([insertion].fill_fraction = " << num(solid / ins.bulk_solid_fraction, 3)
            << " gives about this count)";
+        // 0.6 is a random packing of spheres; elongated particles pack looser (the raw needles'
+        // poured bed in the bulk-density test: solid fraction 0.45, docs/calibration.md), so a
+        // needle bed of this count fills more of the drum than the figure above says.
+        const bool elongated = std::any_of(c.populations.begin(), c.populations.end(), [&](const auto& p) {
+          return c.shapes[p.shape].kind != config::ShapeKind::Sphere;
+        });
+        if (elongated)
+          os << "; not spheres: at a bulk solid fraction of 0.45 (poured raw needles) the fill fraction is "
+             << num(100.0 * solid / 0.45, 3) << " %";
+      }
       os << "\n";
       if (d.rpm != 0.0) os << "  one revolution: " << num(60.0 / std::abs(d.rpm)) << " s\n";
     }
