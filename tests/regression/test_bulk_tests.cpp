@@ -65,6 +65,14 @@ TEST(BulkTests, AngleOfReposeRisesWithSlidingFriction) {
   EXPECT_EQ(hi["at_rest"], 1.0);
   EXPECT_GT(hi["angle_of_repose_deg"], lo["angle_of_repose_deg"] + 4.0);
   EXPECT_GT(hi["heap_height_m"], lo["heap_height_m"]);
+  // This heap of 2 mm beads stands under 10 bead sizes high (9.4 mm): run.log says its angle
+  // depends on single particles; nothing is held up by the cylinder.
+  ASSERT_LT(hi["heap_height_m"], 10.0 * 2e-3);
+  EXPECT_EQ(hi["lifted_bodies"], 0.0);
+  const std::string log = slurp((fs::current_path() / "out_bulk_heap_mu08" / "out" / "run.log").string());
+  EXPECT_NE(log.find("WARNING: heap: it stands "), std::string::npos) << log;
+  EXPECT_NE(log.find(" particle sizes high (d_eq 2 mm): under 10"), std::string::npos) << log;
+  EXPECT_EQ(log.find("held up by the lifted cylinder"), std::string::npos) << log;
 }
 
 // ... and with rolling friction (mu_s = 0.5): no heap at mu_r = 0.05 (a bed whose sector fits lie
