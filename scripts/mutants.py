@@ -64,6 +64,8 @@ M = {
  "32": ("reduce_and_kick (plain step path) h = dt/2 -> dt", [("src/sim/simulation_step.cpp", "  // Body force (with gravity) and torque about the centre of mass, then the second half kick.\n  const double h = 0.5 * dt_s_;", "  // Body force (with gravity) and torque about the centre of mass, then the second half kick.\n  const double h = dt_s_;", 1)]),
  "33": ("make_pair_table: Y* of the pair from material a twice (b ignored)", [("src/driver/build_simulation.cpp", "contact::inverse_effective_young_term(b.young_pa, b.poisson));", "contact::inverse_effective_young_term(a.young_pa, a.poisson));", 1)]),
  "34": ("make_pair_table: beta from sqrt(e) instead of e", [("src/driver/build_simulation.cpp", "q.beta = contact::damping_beta(p.restitution);", "q.beta = contact::damping_beta(std::sqrt(p.restitution));", 1)]),
+ "35": ("a run's free surface of a clockwise drum not mirrored (surface angle of the lab)", [("src/analysis/free_surface.cpp", "fp.rotation = params.image.mirror_x ? Rotation::cw : Rotation::ccw;", "fp.rotation = Rotation::ccw;", 1)]),
+ "36": ("heap: lifted bodies counted from the heap's top, without the particle size", [("src/scenario/bulk_measures.cpp", "low[b] > out.height_m + o.bin_m", "low[b] > out.height_m", 1)]),
 }
 
 
