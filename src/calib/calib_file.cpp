@@ -1,5 +1,6 @@
 #include "calib/calib_file.hpp"
 
+#include <cstdio>
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -116,7 +117,16 @@ class CalibParser {
     const auto* n = t.get(key);
     if (!n) return def;
     auto i = n->as_integer();
-    if (!i || i->get() < 0) fail(where + "." + key + ": must be a non-negative integer");
+    if (!i || i->get() < 0) {
+      std::string value;  // (the value as written, when it is a number)
+      if (i) value = " = " + std::to_string(i->get());
+      if (auto f = n->as_floating_point()) {
+        char b[32];
+        std::snprintf(b, sizeof b, " = %g", f->get());
+        value = b;
+      }
+      fail(where + "." + key + value + ": must be a non-negative integer (written without a decimal point)");
+    }
     return static_cast<std::uint64_t>(i->get());
   }
   std::vector<const toml::table*> entries(const toml::table& root, const char* name) const {

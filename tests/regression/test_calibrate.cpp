@@ -147,6 +147,7 @@ TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
        "[[parameter]] #1.lower"},
       {"lower = 0.0\nupper = 80000.0", "lower = -5.0\nupper = 80000.0", "[[parameter]] #3.lower"},
       {"population = 8", "population = 6", "[campaign].population = 6"},
+      {"population = 8", "population = 8.5", "[campaign].population = 8.5: must be a non-negative integer"},
       {"response = \"retainment_ratio\"\nvalue = 0.7\nunit = \"-\"", "response = \"heap_height_m\"\nvalue = 0.7\nunit = \"m\"",
        "missing target for response \"retainment_ratio\""},
       {"unit = \"deg\"", "unit = \"rad\"", "[[target]] #1.unit = \"rad\": angle_of_repose_deg is measured in \"deg\""},
