@@ -33,6 +33,17 @@ void CaseParser::check_something_to_simulate() const {
     fail("[[population]]: populations are only used by [insertion], which is missing");
   if (cfg_.output.frame_every_s && !cfg_.drum)
     fail("[output].frame_every_s: back-lit frames are cross-sections of the drum, and this case has no [drum]");
+  for (const auto& [key, value] : {std::pair{"surface_bin_m", cfg_.output.surface_bin_m},
+                                   std::pair{"surface_wall_zone_m", cfg_.output.surface_wall_zone_m}}) {
+    if (!value) continue;
+    if (!cfg_.drum)
+      fail(std::string("[output].") + key + ": the free surface is measured in the drum, and this case has no [drum]");
+    // (at least a few bins across the bed, and some surface left between the two wall zones)
+    const double R = 0.5 * cfg_.drum->diameter_m, limit = std::string(key) == "surface_bin_m" ? 0.2 * R : 0.5 * R;
+    if (*value > limit)
+      fail(std::string("[output].") + key + " = " + num(*value) + ": at most " + num(limit) + " m (" +
+           (std::string(key) == "surface_bin_m" ? "a fifth" : "half") + " of the drum radius)");
+  }
   if (cfg_.output.speed_images.value_or(false) && !cfg_.drum)
     fail("[output].speed_images: the speed images are views of the drum from its end, and this case has no [drum]");
 }

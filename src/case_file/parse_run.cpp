@@ -126,7 +126,7 @@ void CaseParser::parse_output() {
   if (!t) return;
   Reader r(file_, *t, "[output]", false,
            {"sample_hz", "snapshot_every_s", "checkpoint_every_s", "trace", "frame_every_s", "frame_size_px",
-            "speed_images", "speed_image_max_m_s", "speed_image_size_px", "speed_image_every_s"});
+            "surface_bin_m", "surface_wall_zone_m", "speed_images", "speed_image_max_m_s", "speed_image_size_px", "speed_image_every_s"});
   auto& o = cfg_.output;
   o.sample_hz = r.real_or("sample_hz", o.sample_hz, kPositive);
   o.snapshot_every_s = r.opt_real("snapshot_every_s", kPositive);
@@ -134,6 +134,8 @@ void CaseParser::parse_output() {
   o.trace = r.opt_bool("trace").value_or(false);
   o.frame_every_s = r.opt_real("frame_every_s", kPositive);
   o.frame_size_px = static_cast<std::uint32_t>(r.opt_uint("frame_size_px", 64, 16384).value_or(o.frame_size_px));
+  o.surface_bin_m = r.opt_real("surface_bin_m", kPositive);
+  o.surface_wall_zone_m = r.opt_real("surface_wall_zone_m", kPositive);
   o.speed_images = r.opt_bool("speed_images");
   o.speed_image_max_m_s = r.opt_real("speed_image_max_m_s", kPositive);
   o.speed_image_every_s = r.opt_real("speed_image_every_s", kPositive);

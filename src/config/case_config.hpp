@@ -180,6 +180,11 @@ struct Output {
   bool trace = false;
   std::optional<double> frame_every_s;       // back-lit cross-section frames
   std::uint32_t frame_size_px = 512;
+  // The free-surface profile of each sample (surface_r2, surface_angle_deg): its bin width and
+  // the zone along the mantle left out; absent: one pixel column of the frame raster, and 5 %
+  // of the drum radius (docs/analysis.md, section 4).
+  std::optional<double> surface_bin_m;
+  std::optional<double> surface_wall_zone_m;
   // The drum seen from its end coloured by speed at each snapshot (speed_images/): absent, on in
   // drum cases of builds with images; the top of the colour scale, absent: derived
   // (case_file::speed_image_scale_m_s); the side of the drum's square in pixels.

@@ -23,6 +23,9 @@
 #include "output/analysis_files.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
+#if BIODEM_HAVE_OPENCV
+#include "analysis/render_frame.hpp"
+#endif
 
 namespace biodem::driver {
 namespace {
@@ -238,6 +241,13 @@ RunSummary Runner::run() {
 #if BIODEM_HAVE_OPENCV
   surface_params_ = analysis::SurfaceParams::for_frames(static_cast<int>(cfg_.output.frame_size_px));
   surface_params_.image.mirror_x = cfg_.drum && cfg_.drum->rpm < 0.0;  // as `biodem video --rotation cw`
+  if (cfg_.drum) {  // [output] surface_bin_m, surface_wall_zone_m: metres to pixels of the raster
+    const double px_per_m = analysis::rendered_disc(surface_params_.raster_px, analysis::BacklitStyle{}).radius_px /
+                            (0.5 * cfg_.drum->diameter_m);
+    if (cfg_.output.surface_bin_m)
+      surface_params_.image.bin_px = std::max(1, static_cast<int>(std::lround(*cfg_.output.surface_bin_m * px_per_m)));
+    if (cfg_.output.surface_wall_zone_m) surface_params_.image.wall_zone_px = *cfg_.output.surface_wall_zone_m * px_per_m;
+  }
 #endif
 
   const auto phases = plan_phases(cfg_);

@@ -326,6 +326,10 @@ std::string describe_case(const config::CaseConfig& c) {
   os << ", checkpoints " << (o.checkpoint_every_s ? "every " + num(*o.checkpoint_every_s) + " s" : std::string("none"));
   os << ", trace " << (o.trace ? "on" : "off");
   if (o.frame_every_s) os << ", frames every " << num(*o.frame_every_s) << " s at " << o.frame_size_px << " px";
+  if (c.drum)  // (the profile of surface_r2 and surface_angle_deg, on the frames' raster)
+    os << ", free surface in bins of "
+       << (o.surface_bin_m ? num(*o.surface_bin_m) + " m" : "one pixel column of the " + std::to_string(o.frame_size_px) + " px raster")
+       << ", wall zone " << (o.surface_wall_zone_m ? num(*o.surface_wall_zone_m) + " m" : std::string("5 % of the drum radius"));
   if (c.drum) {
 #if BIODEM_HAVE_OPENCV
     if (o.speed_images.value_or(true))

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <tuple>
 
 #include "test_util.hpp"
 
@@ -66,4 +67,41 @@ TEST(FramesSurface, R2FromTheRunAndFromItsFramesAgree) {
   EXPECT_GT(matched, 10);
   std::printf("[measured] %d frames matched, worst |r2_run - r2_frames| = %.2e, worst surface angle "
               "difference %.3f deg, lowest r2 %.4f\n", matched, worst, worst_angle, lowest);
+}
+
+// [output] surface_bin_m and surface_wall_zone_m (SPEC 6: the profile's bin width and wall zone
+// are configurable) reach the run's measurement: the tiny drum (Ø20 mm, 400 beads of 1 mm,
+// 30 rpm, 0.06 revolution) with a 2 mm bin and a 4 mm wall zone (0.4 R) against the defaults
+// (one column of 512 px, 0.05 R): the last sample's r^2 and surface angle are valid and differ;
+// run.log states the values.
+TEST(FramesSurface, BinAndWallZoneKeysChangeTheProfile) {
+  auto last = [](const std::string& name, const std::string& extra) {
+    std::ifstream in(source_dir() + "/tests/cases/checkpoint_tiny.toml");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string from = "[output]\n";
+    EXPECT_NE(text.find(from), std::string::npos);
+    text.replace(text.find(from), from.size(), from + extra);
+    const std::string dir = fresh_dir(name);
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir + "/case.toml") << text;
+    const auto r = run_command(biodem_exe() + " run " + dir + "/case.toml --out " + dir + "/out --threads 1");
+    EXPECT_EQ(r.status, 0) << r.output;
+    const auto csv = read_csv(dir + "/out/series.csv");
+    const auto r2 = to_numbers(csv.at("surface_r2")), angle = to_numbers(csv.at("surface_angle_deg"));
+    std::ifstream log(dir + "/out/run.log");
+    const std::string text_log((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+    return std::tuple{r2.empty() ? NAN : r2.back(), angle.empty() ? NAN : angle.back(), text_log};
+  };
+  const auto [r2_def, angle_def, log_def] = last("surface_keys_default", "");
+  const auto [r2_set, angle_set, log_set] = last("surface_keys_set", "surface_bin_m = 2.0e-3\nsurface_wall_zone_m = 4.0e-3\n");
+  std::printf("[measured] last sample: r2 %.4f, angle %.2f deg (defaults); r2 %.4f, angle %.2f deg (2 mm bins, 4 mm wall zone)\n",
+              r2_def, angle_def, r2_set, angle_set);
+  ASSERT_TRUE(std::isfinite(r2_def) && std::isfinite(r2_set));
+  EXPECT_GT(angle_def, 5.0);
+  EXPECT_GT(angle_set, 5.0);
+  EXPECT_NE(r2_def, r2_set);
+  EXPECT_NE(angle_def, angle_set);
+  EXPECT_NE(log_def.find("free surface in bins of one pixel column of the 512 px raster, wall zone 5 % of the drum radius"),
+            std::string::npos);
+  EXPECT_NE(log_set.find("free surface in bins of 0.002 m, wall zone 0.004 m"), std::string::npos);
 }

@@ -764,6 +764,26 @@ TEST(CaseParser, DomainRules) {
                      "periodic length along x");
 }
 
+// The free-surface profile's bin width and wall zone (SPEC 6: configurable), in metres: positive,
+// only with a drum, at most a fifth (bin) and half (wall zone) of the drum radius (the SPEC
+// example's drum: R = 50 mm).
+TEST(CaseParser, SurfaceProfileKeysAreChecked) {
+  const auto c = case_file::parse_case(
+                     edit(kSpecExample, "trace = false", "trace = false\nsurface_bin_m = 1.0e-3\nsurface_wall_zone_m = 4.0e-3"), "c")
+                     .config;
+  EXPECT_DOUBLE_EQ(*c.output.surface_bin_m, 1.0e-3);
+  EXPECT_DOUBLE_EQ(*c.output.surface_wall_zone_m, 4.0e-3);
+  EXPECT_FALSE(case_file::parse_case(kSpecExample, "c").config.output.surface_bin_m);
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = false\nsurface_bin_m = 0.0"), "[output].surface_bin_m");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = false\nsurface_wall_zone_m = -1e-3"),
+                     "[output].surface_wall_zone_m");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = false\nsurface_bin_m = 0.011"),
+                     "[output].surface_bin_m = 0.011: at most 0.01 m");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "trace = false", "trace = false\nsurface_wall_zone_m = 0.026"),
+                     "[output].surface_wall_zone_m = 0.026: at most 0.025 m");
+  EXPECT_ERROR_NAMES(kScene + "\n[output]\nsurface_bin_m = 1e-3\n", "[output].surface_bin_m");
+}
+
 TEST(CaseParser, OutputRules) {
   EXPECT_ERROR_NAMES(edit(kSpecExample, "sample_hz = 50.0", "sample_hz = 0"), "[output].sample_hz");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "snapshot_every_s = 1.0", "snapshot_every_s = -1.0"),
