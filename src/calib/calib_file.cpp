@@ -1,9 +1,9 @@
 #include "calib/calib_file.hpp"
 
-#include <cstdio>
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <fstream>

@@ -44,9 +44,6 @@ void Runner::write_responses() {
     rows.push_back({"stray_bodies", static_cast<double>(h.stray_bodies), "-"});
     rows.push_back({"heap_found", h.valid ? 1.0 : 0.0, "-"});
     rows.push_back({"lifted_bodies", static_cast<double>(h.lifted_bodies), "-"});
-    // Bodies more than a particle size above the heap's top, at rest, can only be held by the
-    // lifted cylinder (cohesion or friction with its material): then the heap is not the
-    // powder's free flow, and a missing heap does not mean that it flowed flat.
     // A heap only a few particles high is rough and flat at the scale of its fitted band (20 to
     // 80 % of its height spans a few bins): its angle says more about single particles than
     // about the powder (the quick example's heap, 5 beads high: 20.4 degrees; 3,200 of the same
@@ -60,6 +57,9 @@ void Runner::write_responses() {
                     h.height_m / d, d * 1e3);
       warnings.push_back(buf);
     }
+    // Bodies more than a particle size above the heap's top, at rest, can only be held by the
+    // lifted cylinder (cohesion or friction with its material): then the heap is not the
+    // powder's free flow, and a missing heap does not mean that it flowed flat.
     if (h.lifted_bodies > 0 && static_cast<double>(h.lifted_bodies) > 0.05 * static_cast<double>(bd.size()))
       warnings.push_back("WARNING: heap: " + std::to_string(h.lifted_bodies) + " of " + std::to_string(bd.size()) +
                          " bodies are more than a particle size above the heap's top: held up by the lifted cylinder"

@@ -13,7 +13,7 @@ namespace biodem::gpu {
 
 struct GraphKeyParts {
   std::uint64_t generation = 0;     // rows_.generation (bits 24-63)
-  std::uint32_t units = 0;          // steps in the graph, at most kMostUnits (bits 3-9)
+  std::uint32_t units = 0;          // steps in the graph, at most kMostUnitsInAGraph (bits 3-9)
   bool translational = false;       // the settle criterion's kind (bit 0)
   bool settle = false;              // the settle criterion evaluated on the device (bit 1)
   bool fused = false;               // kick/drift fused with the sphere update (bit 2)
