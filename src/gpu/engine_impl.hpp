@@ -597,8 +597,18 @@ class Engine final : public DeviceEngine {
   /// The list check's reduction over the current positions (waits for it).
   Motion motion_now();
   /// Stops the run with one line if the motion shows a pair missing from a row, a non-finite
-  /// position or a sphere past half the skin; `lag`: steps the motion may be old.
+  /// position or a sphere past half the skin; `lag`: steps the motion may be old. A sphere past
+  /// half the skin is an error only where the list may have missed a contact: with a motion of
+  /// earlier steps (lag > 0, positions the list gave forces at), or with the motion of now
+  /// (lag 0: positions no forces were computed at yet) standing for the steps before it, once
+  /// the list gave forces at positions other than those it was built at (forces_on_list_ > 1).
+  /// A list used at its build positions alone missed nothing however far a sphere has moved
+  /// since: the check rebuilds it before the forces (a sphere crossing more than half the skin
+  /// in one step then has its list rebuilt at every step, as the CPU engine does).
   void check_motion(const Motion& m, std::uint32_t lag);
+  // Force evaluations made with the current list, the one at its build positions included (the
+  // host's at upload; the first step's after a rebuild at a check).
+  std::uint64_t forces_on_list_ = 0;
   /// A lost body (SPEC 10; [run] lost_particles = "stop", the GPU engine's only choice): the CPU
   /// engine tests every body at each list build. Here the list check's box of the sphere centres
   /// says when one has left: a sphere beyond the lost region by more than the largest bounding
@@ -1220,6 +1230,7 @@ inline void Engine::upload() {
   }
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
   build_list();
+  forces_on_list_ = 1;     // (the host's forces, at the build positions)
   steps_until_check_ = 1;  // the first step checks
   // The queued list check's and settle poll's buffers (pinned memory, an event); if they cannot
   // be had, the checks and polls wait for the device instead, for the rest of the run.
@@ -1747,6 +1758,7 @@ inline void Engine::run_units(std::uint32_t units) {
     profile_.units_s += since(t0);
     profile_.units += units;
   }
+  forces_on_list_ += units;
   motion_queued_ = ns() != 0 && queued_checks_;
   settle_queued_ = motion_queued_ && settle_active_;
   motion_drifts_ = drifts_ + units - 1;
@@ -1855,6 +1867,7 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
       if (entries_ready()) ++entry_passes_;
       if (fixed_sums_) ++fixed_passes_;
       second_half();
+      ++forces_on_list_;
       break;
     }
     run_units(static_cast<std::uint32_t>(units));
@@ -1918,7 +1931,7 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
     if (lag) throw Error("GPU engine: a sphere's position became non-finite by t = " + std::to_string(host_.time_s()) +
                          " s: the simulation became unstable (is [run].dt_s too large?" + fixed_range_hint() + ")");
   }
-  if (moved > half_skin)
+  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1))
     throw Error("GPU engine: a sphere moved " + std::to_string(moved) +
                 " m since the last neighbour-list build, more than half the skin (" + std::to_string(half_skin) +
                 " m), by a list check at most " + std::to_string(lag) + " steps before t = " +
@@ -2004,6 +2017,7 @@ inline void Engine::check_list() {
       per_step = 2.0 * dt_ * std::sqrt(m.speed2);
     }
     build_list(&m.box);
+    forces_on_list_ = 0;
     room = half_skin;
     if (profile_.on) {
       System::wait();
