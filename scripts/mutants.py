@@ -66,6 +66,10 @@ M = {
  "34": ("make_pair_table: beta from sqrt(e) instead of e", [("src/driver/build_simulation.cpp", "q.beta = contact::damping_beta(p.restitution);", "q.beta = contact::damping_beta(std::sqrt(p.restitution));", 1)]),
  "35": ("a run's free surface of a clockwise drum not mirrored (surface angle of the lab)", [("src/analysis/free_surface.cpp", "fp.rotation = params.image.mirror_x ? Rotation::cw : Rotation::ccw;", "fp.rotation = Rotation::ccw;", 1)]),
  "36": ("heap: lifted bodies counted from the heap's top, without the particle size", [("src/scenario/bulk_measures.cpp", "low[b] > out.height_m + o.bin_m", "low[b] > out.height_m", 1)]),
+ # 37-39: the GPU engine's translating walls and sinks (gpu tier: MUTATION_TIERS=gpu).
+ "37": ("GPU: translating walls not moved on the device", [("src/gpu/engine_impl.hpp", "    if (n_moving_walls_)\n      launch(1, MoveWalls", "    if (false)\n      launch(1, MoveWalls", 1)]),
+ "38": ("GPU: a translating wall not every sphere's wall slot", [("src/gpu/kernels.hpp", "wall_touching[slot] != 0 || walls[w].translates != 0 ||", "wall_touching[slot] != 0 ||", 1)]),
+ "39": ("GPU: the walls' device clock not kept across a sink's upload", [("src/gpu/engine_impl.hpp", "  if (n_moving_walls_) to_device(wall_clock_, clock);", "  (void)clock;", 1)]),
 }
 
 

@@ -104,6 +104,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   if (p.move_wall && start_step == 0) {
     if (p.move_by_fill_height) {
       // [heap]: lift by the settled fill's height plus the margin (SPEC 7), not the whole tube.
+      sync(false);  // (GPU engine: the settled fill's positions)
       double fill_top = 0.0;
       const auto& sp = sim_.spheres();
       for (std::size_t i = 0; i < sp.size(); ++i) fill_top = std::max(fill_top, sp.position_m[i].y + sp.radius_m[i]);
@@ -121,6 +122,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
     }
     const double t_end = sim_.time_s() + static_cast<double>(max_steps) * sim_.dt_s();
     sim_.start_wall_translation(*p.move_wall, p.move_velocity_m_s, sim_.time_s(), t_end);
+    if (dev_) dev_->sync_walls();  // (the device's copy of the wall and its schedule)
     log_ << "wall " << *p.move_wall + 1 << " moves at (" << p.move_velocity_m_s.x << ", " << p.move_velocity_m_s.y
          << ", " << p.move_velocity_m_s.z << ") m/s until t = " << t_end << " s\n";
   } else if (p.move_wall && p.move_by_fill_height) {

@@ -60,16 +60,10 @@ LaunchSwitches launch_switches() {
 std::unique_ptr<DeviceEngine> make_device_engine(Backend backend, sim::Simulation& host) {
   (void)launch_switches();  // checked for both backends (the CUDA engine applies them)
   // What the GPU engine does not do yet stops the run before anything is computed.
-  for (std::size_t w = 0; w < host.walls().size(); ++w)
-    if (host.walls()[w].translates())
-      throw Error("--device gpu: wall " + std::to_string(w + 1) +
-                  " translates; the GPU engine runs rotating and fixed walls only (use --device cpu)");
   if (host.walls().size() > kMaxDeviceWalls)
     throw Error("--device gpu: the scene has " + std::to_string(host.walls().size()) +
                 " walls; the GPU engine tests every wall for every sphere and takes at most " +
                 std::to_string(kMaxDeviceWalls) + " (use --device cpu)");
-  if (!host.sinks().empty())
-    throw Error("--device gpu: the case has [[sink]] regions; the GPU engine does not remove bodies yet (use --device cpu)");
   if (backend == Backend::HostThreads) return host_threads::make_engine(host);
 #ifdef BIODEM_WITH_CUDA
   return cuda_device::make_engine(host);

@@ -617,6 +617,16 @@ class Engine final : public DeviceEngine {
   /// (A body lost across a drum's diagonal is caught once it has moved one bounding radius
   /// further along an axis, or at the next sample.) Nothing is read back otherwise.
   void check_lost(const Box& box);
+  /// The case's [[sink]] regions (SPEC 10) at a list check: when the box of the sphere centres,
+  /// widened by the largest bounding radius, reaches a sink, the bodies whose centre is inside
+  /// one are counted on the device (BodyInSink); if any, the state is downloaded, the host removes
+  /// them (sim::Simulation::apply_sinks, the CPU engine's rule) and uploads the rest: the list is
+  /// built again and the next step checks. The CPU engine removes a body after the drift that
+  /// took it in; here that is the first list check after it (a check follows a drift too), at
+  /// most check_every_ steps later. Returns whether bodies were removed.
+  bool apply_sinks(const Box& box);
+  vec<sim::SinkSpec> sinks_;
+  std::uint64_t sink_removals_ = 0;  // list checks that removed bodies
   // The list check's motion, queued by run_units before the last step of each run of steps
   // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
   // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
@@ -698,6 +708,17 @@ class Engine final : public DeviceEngine {
   vec<Int3> packed_wrap_;
   // walls and pair table
   vec<DeviceWall> walls_;
+  // Translating walls (MoveWalls): their schedules, how many, and the device clock they follow.
+  vec<DeviceWallMotion> wall_motion_;
+  vec<double> wall_clock_;
+  std::uint32_t n_moving_walls_ = 0;
+  /// Moves the translating walls to the next step's time (before its contact kernels); nothing
+  /// without them.
+  void move_walls() {
+    if (n_moving_walls_)
+      launch(1, MoveWalls{raw<DeviceWall>(walls_), raw<DeviceWallMotion>(wall_motion_), n_moving_walls_,
+                          raw<double>(wall_clock_), dt_, halt()});
+  }
   vec<contact::ContactHistory> wall_history_;
   vec<std::uint8_t> wall_touching_;
   vec<contact::PairParams> pairs_;
@@ -1029,10 +1050,20 @@ class Engine final : public DeviceEngine {
 
 inline void Engine::copy_walls() {
   invalidate_graphs();
+  // The host's translating walls where their schedules have them now (the host does not move
+  // them while the device steps), then the device's copies, their schedules and clock.
+  host_.update_wall_motion(host_.time_s());
   const auto& w = host_.walls();
   std::vector<DeviceWall> dw(w.size());
-  for (std::size_t k = 0; k < w.size(); ++k) dw[k] = {w[k].geometry, w[k].material};
+  std::vector<DeviceWallMotion> motion;
+  for (std::size_t k = 0; k < w.size(); ++k) {
+    dw[k] = {w[k].geometry, w[k].material, w[k].translates() ? 1u : 0u};
+    if (w[k].translates()) motion.push_back({host_.translation_of_wall(k), static_cast<std::uint32_t>(k)});
+  }
   to_device(walls_, dw);
+  n_moving_walls_ = static_cast<std::uint32_t>(motion.size());
+  to_device(wall_motion_, motion);
+  to_device(wall_clock_, std::vector<double>{host_.time_s()});
 }
 
 inline void Engine::sync_walls() {
@@ -1582,6 +1613,7 @@ inline void Engine::first_half() {
 }
 
 inline void Engine::second_half() {
+  move_walls();
   compute_forces(halt());
   launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, true, halt()});
   if (!settle_active_) return;
@@ -1596,6 +1628,7 @@ inline void Engine::second_half() {
 }
 
 inline void Engine::fused_unit(bool from_second) {
+  move_walls();
   const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt(), centred_spheres_};
   if (fixed_sums_ && entries_ready()) {  // the order-free family: the sums inside the body kernel
     const ContactArgs c = contact_args(halt());
@@ -1958,6 +1991,40 @@ inline void Engine::check_lost(const Box& box) {
   host_.check_lost_bodies();  // throws, naming the body
 }
 
+inline bool Engine::apply_sinks(const Box& box) {
+  const auto& sinks = host_.sinks();
+  if (sinks.empty() || nb() == 0) return false;
+  double rb = 0.0;
+  for (const auto& t : host_.templates()) rb = std::max(rb, t.bounding_radius_m);
+  const Vec3 lo = box.lo - Vec3{rb, rb, rb}, hi = box.hi + Vec3{rb, rb, rb};
+  bool reach = false;
+  for (const auto& k : sinks) {
+    if (k.kind == sim::SinkSpec::Kind::BelowPlane) {  // the box corner deepest along -normal
+      const Vec3 c{k.normal.x >= 0.0 ? lo.x : hi.x, k.normal.y >= 0.0 ? lo.y : hi.y, k.normal.z >= 0.0 ? lo.z : hi.z};
+      reach = reach || dot(c - k.point_m, k.normal) < 0.0;
+    } else {
+      for (int a = 0; a < 3; ++a) reach = reach || lo[a] < k.min_m[a] || hi[a] > k.max_m[a];
+    }
+  }
+  if (!reach) return false;
+  if (sinks_.size() != sinks.size()) to_device(sinks_, sinks);
+  const std::uint32_t inside = thrust::transform_reduce(
+      exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(nb()),
+      BodyInSink{raw<Vec3>(b_pos_), raw<sim::SinkSpec>(sinks_), static_cast<std::uint32_t>(sinks_.size())}, 0u,
+      thrust::plus<std::uint32_t>());
+  if (inside == 0) return false;
+  // The device clock of the translating walls is that of the last step's forces, one step behind
+  // the host clock here (after a drift, before the forces): kept across the upload.
+  std::vector<double> clock;
+  if (n_moving_walls_) to_host(clock, wall_clock_);
+  download(true);
+  host_.apply_sinks();
+  upload();
+  if (n_moving_walls_) to_device(wall_clock_, clock);
+  ++sink_removals_;
+  return true;
+}
+
 inline void Engine::check_list() {
   steps_until_check_ = check_every_;
   if (ns() == 0) return;
@@ -1986,6 +2053,7 @@ inline void Engine::check_list() {
   motion_queued_ = false;
   if (lagged) ++waitless_checks_;
   check_motion(m, lag);
+  if (apply_sinks(m.box)) return;  // (uploaded again: the list is new and the next step checks)
   check_lost(m.box);
   const double half_skin = 0.5 * skin_;
   // Until the next check, k steps later, a sphere moves at most k dt v; twice the largest speed
@@ -2105,6 +2173,7 @@ inline void Engine::download(bool history) {
     for (std::uint32_t c : contacts) total += c;
     host_.set_contact_count(total);
   }
+  host_.update_wall_motion(host_.time_s());  // (the device moved its own copies of the translating walls)
   if (!history) return;
 
   // A fresh host list from the current positions, with the device's pair and wall history.

@@ -19,7 +19,9 @@
 #include "gpu/fixed_sums.hpp"
 #include "integrate/rigid_rotation.hpp"
 #include "integrate/velocity_verlet.hpp"
+#include "sim/sink.hpp"
 #include "walls/wall_geometry.hpp"
+#include "walls/wall_translation.hpp"
 
 #ifndef BIODEM_GPU_NS
 #error "define BIODEM_GPU_NS before including gpu/kernels.hpp"
@@ -35,7 +37,15 @@ struct Int3 {
 struct DeviceWall {
   walls::WallGeometry geometry;
   std::uint32_t material = 0;
+  std::uint32_t translates = 0;  // a prescribed translation (sim::WallSpec::translates): every sphere's candidate
 };
+
+/// A translating wall's schedule on the device (MoveWalls): which wall, and its translation.
+struct DeviceWallMotion {
+  walls::WallTranslation translation;
+  std::uint32_t wall = 0;
+};
+
 
 struct BodyArrays {
   Vec3 *position, *velocity, *omega, *ang_momentum, *force, *torque, *inertia;
@@ -194,6 +204,27 @@ BIODEM_HD inline int image_component(std::int32_t c, int axis) {
 /// so the state stays that of the step that met it. Null (set-up evaluations): never halted.
 BIODEM_HD inline bool halted(const std::uint32_t* halt) { return halt && *halt; }
 
+/// Moves the translating walls to the time of the step whose forces follow (one thread, before
+/// each step's contact kernels): the device clock advances by dt as the host's does (t += dt,
+/// from the host's time at upload), so each wall is where the CPU engine's update_wall_motion(t +
+/// dt) puts it before the same step's forces (walls::place_translating_wall), bit for bit. A
+/// halted step (settle criterion met) neither moves the clock nor the walls.
+struct MoveWalls {
+  DeviceWall* walls;
+  const DeviceWallMotion* motion;
+  std::uint32_t n_moving;
+  double* clock;
+  double dt;
+  const std::uint32_t* halt;
+  BIODEM_HD void operator()(std::uint32_t) const {
+    if (halted(halt)) return;
+    const double t = *clock + dt;
+    *clock = t;
+    for (std::uint32_t k = 0; k < n_moving; ++k)
+      walls::place_translating_wall(walls[motion[k].wall].geometry, motion[k].translation, t);
+  }
+};
+
 /// Sphere i of body k from the body (centre, velocity, spin); R is the body's rotation matrix.
 BIODEM_HD inline void sphere_from_body(const BodyArrays& b, const SphereArrays& s, std::uint32_t k, std::uint32_t i,
                                        const Mat3& R) {
@@ -284,6 +315,18 @@ struct KickDriftSpheres {
 
 struct Box {
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+};
+/// 1 when body k's centre is inside one of the n sinks (sim::SinkSpec::contains, the CPU
+/// engine's test), else 0 (a term of the count the list check makes when its box reaches a sink).
+struct BodyInSink {
+  const Vec3* position;
+  const sim::SinkSpec* sinks;
+  std::uint32_t n;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t k) const {
+    for (std::uint32_t q = 0; q < n; ++q)
+      if (sinks[q].contains(position[k])) return 1u;
+    return 0u;
+  }
 };
 struct BoxOfSphere {
   SphereArrays s;
@@ -1331,8 +1374,8 @@ struct LowerSide {
 /// Whether wall slot `slot` = w * n + a is one a per-contact pass evaluates (the wall-slot
 /// list, ContactArgs::PairList): sphere a touched wall w at the last evaluation, or is within
 /// reach of it (walls::within_reach, radius plus skin, as the CPU engine's wall candidates), or
-/// the wall moves (translation is refused by the GPU engine; a wall with a velocity would be
-/// every sphere's, as in the CPU engine).
+/// the wall translates (before, during or after its motion, as in the CPU engine: a moving wall
+/// may come to any sphere between two builds).
 struct WallSlotNear {
   const Vec3* position;
   const double* radius;
@@ -1343,7 +1386,8 @@ struct WallSlotNear {
   BIODEM_HD std::uint32_t operator()(std::uint32_t slot) const {
     const std::uint32_t a = slot % n, w = slot / n;
     const walls::WallGeometry& g = walls[w].geometry;
-    return wall_touching[slot] != 0 || norm2(g.velocity_m_s) > 0.0 || walls::within_reach(g, position[a], radius[a] + skin)
+    return wall_touching[slot] != 0 || walls[w].translates != 0 || norm2(g.velocity_m_s) > 0.0 ||
+                   walls::within_reach(g, position[a], radius[a] + skin)
                ? 1u
                : 0u;
   }

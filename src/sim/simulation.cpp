@@ -46,9 +46,7 @@ void Simulation::update_wall_motion(double t) {
   for (std::size_t k = 0; k < walls_.size(); ++k) {
     WallSpec& w = walls_[k];
     if (!w.translates()) continue;
-    const double tau = std::clamp(t - w.move_start_s, 0.0, w.move_end_s - w.move_start_s);
-    w.geometry.point_m = wall_initial_point_m_[k] + tau * w.translation_velocity_m_s;
-    w.geometry.velocity_m_s = (t >= w.move_start_s && t < w.move_end_s) ? w.translation_velocity_m_s : Vec3{};
+    walls::place_translating_wall(w.geometry, translation_of_wall(k), t);
   }
 }
 

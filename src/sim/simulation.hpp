@@ -31,7 +31,9 @@
 #include "neighbor/verlet_list.hpp"
 #include "sim/pair_pass.hpp"
 #include "shapes/clump_template.hpp"
+#include "sim/sink.hpp"
 #include "state/particle_store.hpp"
+#include "walls/wall_translation.hpp"
 #include "walls/wall_geometry.hpp"
 
 namespace biodem::sim {
@@ -47,20 +49,6 @@ struct WallSpec {
   Vec3 translation_velocity_m_s;
   double move_start_s = 0.0, move_end_s = 0.0;
   bool translates() const { return move_end_s > move_start_s && norm2(translation_velocity_m_s) > 0.0; }
-};
-
-/// A region that removes the bodies whose centre of mass enters it (issue 9: particles that
-/// fall off a heap's base plate or out of a shear box). Removed bodies are counted with their mass.
-struct SinkSpec {
-  enum class Kind { BelowPlane, OutsideBox };
-  Kind kind = Kind::BelowPlane;
-  Vec3 point_m;          // below_plane: a point on the plane
-  Vec3 normal{0, 1, 0};  // below_plane: unit normal; bodies on the -normal side are removed
-  Vec3 min_m, max_m;     // outside_box: bodies outside [min, max] are removed
-  bool contains(const Vec3& x) const {
-    if (kind == Kind::BelowPlane) return dot(x - point_m, normal) < 0.0;
-    return x.x < min_m.x || x.y < min_m.y || x.z < min_m.z || x.x > max_m.x || x.y > max_m.y || x.z > max_m.z;
-  }
 };
 
 /// Sparse wall contact table (CSR by sphere): the walls each sphere may touch before the next
@@ -140,10 +128,22 @@ class Simulation {
     if (list_valid_) update_wall_candidates();  // a moving wall is a candidate of every sphere
   }
   const Vec3& wall_initial_point_m(std::size_t k) const { return wall_initial_point_m_[k]; }
+  /// Wall k's translation schedule (walls/wall_translation.hpp; meaningful when it translates()).
+  walls::WallTranslation translation_of_wall(std::size_t k) const {
+    const WallSpec& w = walls_[k];
+    return walls::WallTranslation{wall_initial_point_m_[k], w.translation_velocity_m_s, w.move_start_s, w.move_end_s};
+  }
+  /// Puts the translating walls where their schedules have them at time t (the CPU engine does so
+  /// at each step; the GPU engine moves its own copies and calls this when it brings the host up
+  /// to date).
+  void update_wall_motion(double t);
   const std::vector<SinkSpec>& sinks() const { return sinks_; }
   /// Removes the bodies flagged (by storage index) with their spheres and contacts; the others
   /// keep their stable ids and their contact history. Counts them and their mass as removed.
   std::size_t remove_bodies(const std::vector<std::uint8_t>& remove);
+  /// Removes the bodies whose centre is inside a sink: the CPU engine after the drift of each
+  /// step, the GPU engine at its list checks (after a drift too).
+  void apply_sinks();
   /// Bodies removed so far (sinks and remove_bodies) and their total mass.
   std::uint64_t removed_bodies() const { return removed_bodies_; }
   double removed_mass_kg() const { return removed_mass_kg_; }
@@ -284,10 +284,7 @@ class Simulation {
   /// Walls within r + skin of each sphere at the last build (spheres move less than skin/2
   /// between builds, so no other wall can be touched before the next build).
   void update_wall_candidates();
-  /// Removes the bodies inside a sink (called after the drift of each step).
-  void apply_sinks();
   /// Places translating walls where their schedule puts them at time t and sets their velocity.
-  void update_wall_motion(double t);
 
   std::vector<shapes::ClumpTemplate> templates_;
   std::vector<double> density_;
