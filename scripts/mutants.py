@@ -70,6 +70,7 @@ M = {
  "37": ("GPU: translating walls not moved on the device", [("src/gpu/engine_impl.hpp", "    if (n_moving_walls_)\n      launch(1, MoveWalls", "    if (false)\n      launch(1, MoveWalls", 1)]),
  "38": ("GPU: a translating wall not every sphere's wall slot", [("src/gpu/kernels.hpp", "wall_touching[slot] != 0 || walls[w].translates != 0 ||", "wall_touching[slot] != 0 ||", 1)]),
  "39": ("GPU: the walls' device clock not kept across a sink's upload", [("src/gpu/engine_impl.hpp", "  if (n_moving_walls_) to_device(wall_clock_, clock);", "  (void)clock;", 1)]),
+ "40": ("GPU: a sink's upload writes back a stale settle state (regression tier)", [("src/gpu/engine_impl.hpp", "  if (settle_active_) poll_settle();\n  download(true);", "  download(true);", 1)]),
 }
 
 

@@ -617,16 +617,23 @@ class Engine final : public DeviceEngine {
   /// (A body lost across a drum's diagonal is caught once it has moved one bounding radius
   /// further along an axis, or at the next sample.) Nothing is read back otherwise.
   void check_lost(const Box& box);
-  /// The case's [[sink]] regions (SPEC 10) at a list check: when the box of the sphere centres,
-  /// widened by the largest bounding radius, reaches a sink, the bodies whose centre is inside
-  /// one are counted on the device (BodyInSink); if any, the state is downloaded, the host removes
-  /// them (sim::Simulation::apply_sinks, the CPU engine's rule) and uploads the rest: the list is
-  /// built again and the next step checks. The CPU engine removes a body after the drift that
-  /// took it in; here that is the first list check after it (a check follows a drift too), at
-  /// most check_every_ steps later. Returns whether bodies were removed.
-  bool apply_sinks(const Box& box);
+  /// The case's [[sink]] regions (SPEC 10), after the drift of every step whose number is a
+  /// multiple of kSinkEvery (the host's step count, so a resumed run tests at the same steps):
+  /// the bodies whose centre is inside one are counted on the device (BodyInSink, a wait); if
+  /// any, the state is downloaded, the host removes them (sim::Simulation::apply_sinks, the CPU
+  /// engine's rule) and uploads the rest: the list is built again and the next step checks. The
+  /// CPU engine removes a body after the drift that took it in; here at most kSinkEvery - 1
+  /// steps later. Returns whether bodies were removed.
+  bool apply_sinks();
+  static constexpr std::uint64_t kSinkEvery = 10;
+  /// Steps from the one whose first half is done to the next that tests the sinks (0: this one);
+  /// no limit without sinks.
+  std::uint64_t steps_to_sink_test() const {
+    if (host_.sinks().empty()) return ~std::uint64_t{0};
+    return (kSinkEvery - host_.step_count() % kSinkEvery) % kSinkEvery;
+  }
   vec<sim::SinkSpec> sinks_;
-  std::uint64_t sink_removals_ = 0;  // list checks that removed bodies
+  std::uint64_t sink_removals_ = 0;  // sink tests that removed bodies
   // The list check's motion, queued by run_units before the last step of each run of steps
   // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
   // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
@@ -1894,8 +1901,11 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
       }
       check_list();
     }
-    // The next check is steps_until_check_ steps after this one.
-    const std::uint64_t units = std::min<std::uint64_t>(steps_until_check_, max_steps - cur);
+    if (steps_to_sink_test() == 0) apply_sinks();  // (after removals: uploaded, the next step checks)
+    // The next check is steps_until_check_ steps after this one; the runs of steps also end at
+    // the steps that test the sinks.
+    const std::uint64_t to_sinks = steps_to_sink_test() ? steps_to_sink_test() : kSinkEvery;
+    const std::uint64_t units = std::min<std::uint64_t>({steps_until_check_, max_steps - cur, to_sinks});
     if (units == 0) {
       if (entries_ready()) ++entry_passes_;
       if (fixed_sums_) ++fixed_passes_;
@@ -1991,22 +2001,9 @@ inline void Engine::check_lost(const Box& box) {
   host_.check_lost_bodies();  // throws, naming the body
 }
 
-inline bool Engine::apply_sinks(const Box& box) {
+inline bool Engine::apply_sinks() {
   const auto& sinks = host_.sinks();
   if (sinks.empty() || nb() == 0) return false;
-  double rb = 0.0;
-  for (const auto& t : host_.templates()) rb = std::max(rb, t.bounding_radius_m);
-  const Vec3 lo = box.lo - Vec3{rb, rb, rb}, hi = box.hi + Vec3{rb, rb, rb};
-  bool reach = false;
-  for (const auto& k : sinks) {
-    if (k.kind == sim::SinkSpec::Kind::BelowPlane) {  // the box corner deepest along -normal
-      const Vec3 c{k.normal.x >= 0.0 ? lo.x : hi.x, k.normal.y >= 0.0 ? lo.y : hi.y, k.normal.z >= 0.0 ? lo.z : hi.z};
-      reach = reach || dot(c - k.point_m, k.normal) < 0.0;
-    } else {
-      for (int a = 0; a < 3; ++a) reach = reach || lo[a] < k.min_m[a] || hi[a] > k.max_m[a];
-    }
-  }
-  if (!reach) return false;
   if (sinks_.size() != sinks.size()) to_device(sinks_, sinks);
   const std::uint32_t inside = thrust::transform_reduce(
       exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(nb()),
@@ -2017,6 +2014,9 @@ inline bool Engine::apply_sinks(const Box& box) {
   // the host clock here (after a drift, before the forces): kept across the upload.
   std::vector<double> clock;
   if (n_moving_walls_) to_host(clock, wall_clock_);
+  // In a criterion phase, the settle state of now (the step before this one, as at a check),
+  // which the upload writes back: the one last read may be steps old.
+  if (settle_active_) poll_settle();
   download(true);
   host_.apply_sinks();
   upload();
@@ -2053,7 +2053,6 @@ inline void Engine::check_list() {
   motion_queued_ = false;
   if (lagged) ++waitless_checks_;
   check_motion(m, lag);
-  if (apply_sinks(m.box)) return;  // (uploaded again: the list is new and the next step checks)
   check_lost(m.box);
   const double half_skin = 0.5 * skin_;
   // Until the next check, k steps later, a sphere moves at most k dt v; twice the largest speed

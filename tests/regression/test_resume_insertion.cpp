@@ -186,3 +186,14 @@ TEST(ResumeBulkTest, ShearBoxKilledWhilePouringAndGateLiftResumesBitForBit) {
   kill_and_resume(c, "sb_resume", "cpu",
                   {{true, 2000, "insert"}, {false, 6000, "fill"}, {true, 12000, "gate"}, {true, 25000, "rest"}});
 }
+
+// The same shear box on the GPU engine (its kernels on CPU threads): the gate is a translating
+// wall moved by the device clock, and the sinks are tested at the steps whose number is a
+// multiple of 10, so a resumed run removes the same beads at the same steps: killed while the
+// gate rises and beads flow into the sink (abort 12000) and while the flow comes to rest (abort
+// 25000), it resumes bit for bit.
+TEST(ResumeBulkTest, ShearBoxOnTheGpuEngineKilledDuringGateLiftResumesBitForBit) {
+  const std::string c = with_resume_outputs("shear_box_tiny.toml", "shear_box_resume_gpu");
+  ASSERT_FALSE(c.empty());
+  kill_and_resume(c, "sb_resume_gpu", "gpu-emulated", {{true, 12000, "gate"}, {true, 25000, "rest"}});
+}
