@@ -79,8 +79,6 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
   };
   if (device_ == config::Device::Gpu) dev_ = make_engine(gpu::Backend::Cuda, "gpu");
   if (device_ == config::Device::GpuEmulated) dev_ = make_engine(gpu::Backend::HostThreads, "gpu-emulated");
-  if (dev_ && cfg_.run.remove_lost_particles)
-    throw Error(cfg_.source_path + ": [run] lost_particles = \"remove\" is not supported by the GPU engine (use --device cpu, or \"stop\")");
 #if !BIODEM_HAVE_OPENCV
   if (cfg_.output.frame_every_s)
     throw Error(cfg_.source_path + ": [output] frame_every_s: back-lit frames are not built in this lean build (no OpenCV)");

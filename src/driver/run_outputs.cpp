@@ -27,7 +27,9 @@ void Runner::sample() {
   if (last_sample_step_ == sim_.step_count()) return;  // already sampled at this step
   last_sample_step_ = sim_.step_count();
   sync(false);
-  if (dev_ && device_current_) sim_.check_lost_bodies();  // the GPU engine: checked at every sample ("stop" only)
+  // The GPU engine: lost bodies checked at every sample when they stop the run; "remove" is the
+  // engine's (every 10th step), which removes them from the device's state too.
+  if (dev_ && device_current_ && !sim_.lost_region().remove) sim_.check_lost_bodies();
   const auto& b = sim_.bodies();
   double m = 0.0, xc = 0.0, yc = 0.0;
   for (std::size_t i = 0; i < b.size(); ++i) {

@@ -617,19 +617,24 @@ class Engine final : public DeviceEngine {
   /// (A body lost across a drum's diagonal is caught once it has moved one bounding radius
   /// further along an axis, or at the next sample.) Nothing is read back otherwise.
   void check_lost(const Box& box);
-  /// The case's [[sink]] regions (SPEC 10), after the drift of every step whose number is a
-  /// multiple of kSinkEvery (the host's step count, so a resumed run tests at the same steps):
-  /// the bodies whose centre is inside one are counted on the device (BodyInSink, a wait); if
-  /// any, the state is downloaded, the host removes them (sim::Simulation::apply_sinks, the CPU
-  /// engine's rule) and uploads the rest: the list is built again and the next step checks. The
-  /// CPU engine removes a body after the drift that took it in; here at most kSinkEvery - 1
-  /// steps later. Returns whether bodies were removed.
+  /// The case's [[sink]] regions (SPEC 10) and, with [run] lost_particles = "remove", its lost
+  /// region, after the drift of every step whose number is a multiple of kSinkEvery (the
+  /// host's step count, so a resumed run tests at the same steps): the bodies whose centre is
+  /// inside a sink or may be lost are counted on the device (BodyInSink, BodyMayBeLost; a
+  /// wait); if any, the state is downloaded, the host removes them (sim::Simulation::apply_sinks
+  /// and check_lost_bodies, the CPU engine's rules, which count them) and uploads the rest: the
+  /// list is built again and the next step checks. The CPU engine removes a body after the
+  /// drift that took it into a sink, and a lost body at its next list build; here at most
+  /// kSinkEvery - 1 steps later. Returns whether bodies were removed.
   bool apply_sinks();
   static constexpr std::uint64_t kSinkEvery = 10;
+  bool removes_lost() const {
+    return host_.lost_region().kind != sim::LostRegion::Kind::None && host_.lost_region().remove;
+  }
   /// Steps from the one whose first half is done to the next that tests the sinks (0: this one);
-  /// no limit without sinks.
+  /// no limit without sinks or lost bodies to remove.
   std::uint64_t steps_to_sink_test() const {
-    if (host_.sinks().empty()) return ~std::uint64_t{0};
+    if (host_.sinks().empty() && !removes_lost()) return ~std::uint64_t{0};
     return (kSinkEvery - host_.step_count() % kSinkEvery) % kSinkEvery;
   }
   vec<sim::SinkSpec> sinks_;
@@ -1984,7 +1989,7 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
 
 inline void Engine::check_lost(const Box& box) {
   const sim::LostRegion& r = host_.lost_region();
-  if (r.kind == sim::LostRegion::Kind::None) return;
+  if (r.kind == sim::LostRegion::Kind::None || r.remove) return;  // (remove: apply_sinks)
   double rb = 0.0;
   for (const auto& t : host_.templates()) rb = std::max(rb, t.bounding_radius_m);
   bool out = false;
@@ -2003,12 +2008,33 @@ inline void Engine::check_lost(const Box& box) {
 
 inline bool Engine::apply_sinks() {
   const auto& sinks = host_.sinks();
-  if (sinks.empty() || nb() == 0) return false;
-  if (sinks_.size() != sinks.size()) to_device(sinks_, sinks);
-  const std::uint32_t inside = thrust::transform_reduce(
-      exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(nb()),
-      BodyInSink{raw<Vec3>(b_pos_), raw<sim::SinkSpec>(sinks_), static_cast<std::uint32_t>(sinks_.size())}, 0u,
-      thrust::plus<std::uint32_t>());
+  if ((sinks.empty() && !removes_lost()) || nb() == 0) return false;
+  auto count = [this](const auto& f) {
+    return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
+                                    thrust::counting_iterator<std::uint32_t>(nb()), f, 0u,
+                                    thrust::plus<std::uint32_t>());
+  };
+  std::uint32_t inside = 0;
+  if (!sinks.empty()) {
+    if (sinks_.size() != sinks.size()) to_device(sinks_, sinks);
+    inside += count(BodyInSink{raw<Vec3>(b_pos_), raw<sim::SinkSpec>(sinks_), static_cast<std::uint32_t>(sinks_.size())});
+  }
+  if (removes_lost()) {
+    const sim::LostRegion& r = host_.lost_region();
+    DeviceLostRegion d;
+    d.drum = r.kind == sim::LostRegion::Kind::Drum ? 1u : 0u;
+    d.radius_m = r.radius_m;
+    d.z0_m = r.z0_m;
+    d.z1_m = r.z1_m;
+    d.periodic_z = r.periodic_z ? 1u : 0u;
+    d.min_m = r.min_m;
+    d.max_m = r.max_m;
+    for (int a = 0; a < 3; ++a) d.periodic[a] = r.box_periodic[a] ? 1u : 0u;
+    d.rb_min = 1e300;
+    for (const auto& t : host_.templates()) d.rb_min = std::min(d.rb_min, t.bounding_radius_m);
+    if (host_.templates().empty()) d.rb_min = 0.0;
+    inside += count(BodyMayBeLost{raw<Vec3>(b_pos_), d});
+  }
   if (inside == 0) return false;
   // The device clock of the translating walls is that of the last step's forces, one step behind
   // the host clock here (after a drift, before the forces): kept across the upload.
@@ -2018,7 +2044,10 @@ inline bool Engine::apply_sinks() {
   // which the upload writes back: the one last read may be steps old.
   if (settle_active_) poll_settle();
   download(true);
+  const std::size_t before = host_.bodies().size();
   host_.apply_sinks();
+  if (removes_lost()) host_.check_lost_bodies();  // (removes and counts them)
+  if (host_.bodies().size() == before) return false;  // (a body between the radii: kept, nothing to upload)
   upload();
   if (n_moving_walls_) to_device(wall_clock_, clock);
   ++sink_removals_;

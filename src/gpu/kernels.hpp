@@ -316,6 +316,35 @@ struct KickDriftSpheres {
 struct Box {
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
 };
+/// The lost region of [run] lost_particles = "remove" on the device (sim::LostRegion), with the
+/// smallest bounding radius of the scene's shapes: BodyMayBeLost is 1 for every body the host's
+/// test (Simulation::check_lost_bodies, with the body's own bounding radius, at least this one)
+/// finds lost, and for a body between the two radii, which the host then keeps.
+struct DeviceLostRegion {
+  std::uint32_t drum = 0;  // 1: the drum (axis z through the origin), 0: the box
+  double radius_m = 0.0, z0_m = 0.0, z1_m = 0.0;
+  std::uint32_t periodic_z = 0;
+  Vec3 min_m, max_m;
+  std::uint32_t periodic[3] = {0, 0, 0};
+  double rb_min = 0.0;
+};
+struct BodyMayBeLost {
+  const Vec3* position;
+  DeviceLostRegion r;
+  BIODEM_HD std::uint32_t operator()(std::uint32_t k) const {
+    const Vec3 x = position[k];
+    bool lost = !(x.x == x.x && x.y == x.y && x.z == x.z);
+    if (r.drum) {
+      const double lim = r.radius_m + r.rb_min;
+      lost = lost || x.x * x.x + x.y * x.y > lim * lim;
+      if (!r.periodic_z) lost = lost || x.z < r.z0_m - r.rb_min || x.z > r.z1_m + r.rb_min;
+    } else {
+      for (int a = 0; a < 3; ++a) lost = lost || (!r.periodic[a] && (x[a] < r.min_m[a] || x[a] > r.max_m[a]));
+    }
+    return lost ? 1u : 0u;
+  }
+};
+
 /// 1 when body k's centre is inside one of the n sinks (sim::SinkSpec::contains, the CPU
 /// engine's test), else 0 (a term of the count the list check makes when its box reaches a sink).
 struct BodyInSink {

@@ -90,9 +90,14 @@ TEST(LostParticles, DefaultStopsNamingTheBody) {
   EXPECT_EQ(r.output.find("internal error"), std::string::npos) << r.output;
 }
 
+// On both engines (the GPU engine's kernels on CPU threads: since 2026-11-28 it removes lost
+// bodies too, tested every 10th step): the same count, and the same alpha of the two beads left.
 TEST(LostParticles, RemoveCountsThemAndKeepsTheOthers) {
-  const std::string d = write_case("lost_remove", scene("lost_particles = \"remove\""));
-  auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1");
+  std::vector<double> alpha;
+  for (const std::string device : {"cpu", "gpu-emulated"}) {
+  SCOPED_TRACE(device);
+  const std::string d = write_case("lost_remove_" + device, scene("lost_particles = \"remove\""));
+  auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1 --device " + device);
   ASSERT_EQ(r.status, 0) << r.output;
   const auto s = read_csv(d + "/out/series.csv");
   const auto lost = to_numbers(s.at("lost_bodies"));
@@ -103,6 +108,10 @@ TEST(LostParticles, RemoveCountsThemAndKeepsTheOthers) {
             std::string::npos);
   const auto trace_ok = run_command("grep -c '<Piece NumberOfPoints=\"2\"' " + d + "/out/snapshots/spheres_000001.vtu");
   EXPECT_EQ(trace_ok.output.substr(0, 1), "1") << "the last snapshot holds the two beads that stayed";
+  alpha.push_back(to_numbers(s.at("alpha_deg")).back());
+  }
+  ASSERT_EQ(alpha.size(), 2u);
+  EXPECT_NEAR(alpha[1], alpha[0], 1e-6);
 }
 
 TEST(LostParticles, BadKeysAreOneLineErrors) {
