@@ -71,6 +71,7 @@ M = {
  "38": ("GPU: a translating wall not every sphere's wall slot", [("src/gpu/kernels.hpp", "wall_touching[slot] != 0 || walls[w].translates != 0 ||", "wall_touching[slot] != 0 ||", 1)]),
  "39": ("GPU: the walls' device clock not kept across a sink's upload", [("src/gpu/engine_impl.hpp", "  if (n_moving_walls_) to_device(wall_clock_, clock);", "  (void)clock;", 1)]),
  "40": ("GPU: a sink's upload writes back a stale settle state (regression tier)", [("src/gpu/engine_impl.hpp", "  if (settle_active_) poll_settle();\n  download(true);", "  download(true);", 1)]),
+ "41": ("GPU: lost bodies not removed in remove mode (regression tier)", [("src/gpu/engine_impl.hpp", "  if (removes_lost()) host_.check_lost_bodies();  // (removes and counts them)", "", 1)]),
 }
 
 
