@@ -70,8 +70,10 @@ M = {
  "37": ("GPU: translating walls not moved on the device", [("src/gpu/engine_impl.hpp", "    if (n_moving_walls_)\n      launch(1, MoveWalls", "    if (false)\n      launch(1, MoveWalls", 1)]),
  "38": ("GPU: a translating wall not every sphere's wall slot", [("src/gpu/kernels.hpp", "wall_touching[slot] != 0 || walls[w].translates != 0 ||", "wall_touching[slot] != 0 ||", 1)]),
  "39": ("GPU: the walls' device clock not kept across a sink's upload", [("src/gpu/engine_impl.hpp", "  if (n_moving_walls_) to_device(wall_clock_, clock);", "  (void)clock;", 1)]),
- "40": ("GPU: a sink's upload writes back a stale settle state (regression tier)", [("src/gpu/engine_impl.hpp", "  if (settle_active_) poll_settle();\n  download(true);", "  download(true);", 1)]),
+ "40": ("GPU: a sink's upload writes back a stale settle state (regression tier)", [("src/gpu/engine_impl.hpp", "  if (settle_active_) {\n    poll_settle();", "  if (false) {\n    poll_settle();", 1)]),
  "41": ("GPU: lost bodies not removed in remove mode (regression tier)", [("src/gpu/engine_impl.hpp", "  if (removes_lost()) host_.check_lost_bodies();  // (removes and counts them)", "", 1)]),
+ "42": ("GPU: a sphere past half the skin never stops the run", [("src/gpu/engine_impl.hpp", "  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1))", "  if (moved > half_skin && false)", 1)]),
+ "43": ("GPU: a removal's upload counted as forces at the new list's positions", [("src/gpu/engine_impl.hpp", "  forces_on_list_ = 0;  // (the host's forces are of the step before", "  // (the host's forces are of the step before", 1)]),
 }
 
 

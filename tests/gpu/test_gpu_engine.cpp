@@ -148,24 +148,38 @@ TEST(GpuEngine, ObliqueWallImpactWithAllModelsMatchesCpu) {
 // engine does, so the GPU engine runs it (it used to stop at the first check, asking for a
 // larger skin) and follows the CPU engine through a bead-bead and a bead-wall impact.
 TEST(GpuEngine, BeadFasterThanHalfTheSkinPerStepMatchesCpu) {
+  for (const char* queued : {"1", "0"}) {
+  SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
   SimSetup su = bead_setup(0.5, 0.3);
   sim::Simulation cpu = make_simulation(su), gs = make_simulation(su);
   for (auto* s : {&cpu, &gs}) {
     s->add_wall(plane_wall({1.5e-3, 0, 0}, {-1, 0, 0}));
     add_particle(*s, 0, {-2.5e-3, 0, 0}, {2.0, 0, 0});
     add_particle(*s, 0, {0, 0, 0});
+    // A third bead inside a sink from the start: the GPU engine removes it at step 10, the last
+    // step of the first run below (the upload it makes there must not count as forces at the new
+    // list's positions: the next check, of a sphere 0.4 um from them, rebuilds).
+    sim::SinkSpec k;
+    k.point_m = {0.0, -5e-3, 0.0};
+    s->add_sink(k);
+    add_particle(*s, 0, {0, -10e-3, 0});
     s->set_skin(5e-7);
   }
   ASSERT_GT(2.0 * su.dt_s, 0.5 * gs.skin_m());
+  ::setenv("BIODEM_GPU_QUEUED_CHECK", queued, 1);
   auto eng = gpu_engine(gs);
+  ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
   eng->upload();
   const std::uint64_t steps = 7000, run = 37;
-  for (std::uint64_t k = 0; k < steps; k += run) {
-    const std::uint64_t n = std::min(run, steps - k);
+  for (std::uint64_t k = 0; k < steps;) {
+    const std::uint64_t n = k == 0 ? 10 : std::min(run, steps - k);
     for (std::uint64_t q = 0; q < n; ++q) cpu.step();
     ASSERT_EQ(eng->advance(n).steps, n);
+    k += n;
   }
   eng->download(true);
+  ASSERT_EQ(gs.bodies().size(), 2u);
+  ASSERT_EQ(cpu.bodies().size(), 2u);
   const Vec3 va_c = cpu.bodies().velocity_m_s[0], vb_c = cpu.bodies().velocity_m_s[1];
   const Vec3 va_g = gs.bodies().velocity_m_s[0], vb_g = gs.bodies().velocity_m_s[1];
   std::printf("[measured] fast beads: v_x cpu %.9g %.9g, gpu %.9g %.9g (m/s)\n", va_c.x, vb_c.x, va_g.x, vb_g.x);
@@ -178,6 +192,36 @@ TEST(GpuEngine, BeadFasterThanHalfTheSkinPerStepMatchesCpu) {
   EXPECT_LT(norm(va_g - va_c), 1e-12 * norm(va_c));
   EXPECT_LT(norm(vb_g - vb_c), 1e-12 * norm(vb_c));
   EXPECT_LT(worst_position_gap(cpu, gs), 1e-15);
+  }
+}
+
+// The stop that remains: two beads overlapping by 0.3 mm at rest push apart at 29,000 m/s^2. The
+// first check (after one step) sees 5.7 mm/s and, allowing for twice that speed, sets the next
+// check 10 steps later; by then each bead has moved 58 nm from its build position, more than half
+// the 0.1 um skin, at positions the list gave forces at: the run stops naming the displacement
+// (the CPU engine, testing every step, rebuilds instead). With the queued checks and with every
+// check waiting for its reduction (BIODEM_GPU_QUEUED_CHECK=0).
+TEST(GpuEngine, SphereOutrunningTheListCheckStopsTheRun) {
+  for (const char* queued : {"1", "0"}) {
+    SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
+    ::setenv("BIODEM_GPU_QUEUED_CHECK", queued, 1);
+    SimSetup su = bead_setup(0.5, 0.3);
+    sim::Simulation gs = make_simulation(su);
+    add_particle(gs, 0, {-0.85e-3, 0, 0});
+    add_particle(gs, 0, {0.85e-3, 0, 0});
+    gs.set_skin(1e-7);
+    auto eng = gpu_engine(gs);
+    ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
+    eng->upload();
+    try {
+      eng->advance(200);
+      FAIL() << "a sphere past half the skin at positions the list gave forces at must stop the run";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("more than half the skin"), std::string::npos) << what;
+      EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
+    }
+  }
 }
 
 // Translating walls (bulk tests: the heap's lifted cylinder, the shear box's gate). A plate
@@ -273,11 +317,30 @@ TEST(GpuEngine, SinkRemovesBodiesAsOnCpu) {
   }
   auto eng = gpu_engine(gs);
   eng->upload();
-  // 40 ms: the second bead falls 3.5 mm (to the sink plane) in about 26.7 ms.
-  for (std::uint64_t k = 0; k < 40; ++k) {
-    for (int q = 0; q < 1000; ++q) cpu.step();
-    ASSERT_EQ(eng->advance(1000).steps, 1000u);
+  // 40 ms: the second bead falls 3.5 mm (to the sink plane) in about 26.7 ms. Runs of 997 steps
+  // (the sink tests fall anywhere in a run, at its first and last steps too); the step at which
+  // each engine removed the bead is found from the body count after every run.
+  std::uint64_t cpu_removed_at = 0, done = 0;
+  std::vector<std::uint64_t> gpu_counts;
+  while (done < 40000) {
+    const std::uint64_t n = std::min<std::uint64_t>(997, 40000 - done);
+    for (std::uint64_t q = 0; q < n; ++q) {
+      cpu.step();
+      if (!cpu_removed_at && cpu.bodies().size() == 1) cpu_removed_at = done + q + 1;
+    }
+    ASSERT_EQ(eng->advance(n).steps, n);
+    done += n;
+    eng->download(false);
+    gpu_counts.push_back(gs.bodies().size());
   }
+  ASSERT_GT(cpu_removed_at, 0u);
+  // The GPU engine removed it at the first step numbered a multiple of 10 from the CPU
+  // engine's: the run holding that step is the first with one body.
+  const std::uint64_t gpu_step = (cpu_removed_at + 9) / 10 * 10;
+  for (std::size_t r = 0; r < gpu_counts.size(); ++r)
+    EXPECT_EQ(gpu_counts[r], (r + 1) * 997 >= gpu_step ? 1u : 2u) << "run " << r;
+  std::printf("[measured] the CPU engine removed the bead at step %llu, the GPU engine by step %llu\n",
+              static_cast<unsigned long long>(cpu_removed_at), static_cast<unsigned long long>(gpu_step));
   eng->download(true);
   ASSERT_EQ(cpu.bodies().size(), 1u);
   ASSERT_EQ(gs.bodies().size(), 1u);
