@@ -22,7 +22,9 @@
 # (1b) "sass": bench/gpu_sass.sh (the step kernels' SASS and ncu's stall samples per instruction,
 # for sessions without a GPU to read; in lease.tgz); (3) "sweep": bench/run_gpu_sweep.sh (ncu kernel durations, launch settings, skins);
 # (4) "scaling": bench/run_scaling.sh, the CPU engine at 1-16 threads on the raw drum with a
-# shortened settle. Results in GPU_LEASE_OUT (default out/gpu_lease): report.md, the CSV files,
+# shortened settle; (5) "bulk": the raw-biomass heap of the calibration (11,100 spheres, a
+# lifted cylinder and a sink) on the GPU, its phases' wall times and responses
+# (GPU_LEASE_BULK_S, default 150). Results in GPU_LEASE_OUT (default out/gpu_lease): report.md, the CSV files,
 # lease.log, and everything in lease.tgz.
 #
 # Environment: GPU_LEASE_STEPS (default "bench check"), GPU_LEASE_OUT, GPU_LEASE_RETURN (a folder
@@ -184,6 +186,16 @@ if want scaling; then  # issue 18: the CPU engine at 1-16 threads, raw drum with
   BIODEM=build-gpu/biodem OUT="$O/scaling" timeout "$(lim "${GPU_LEASE_SCALING_S:-120}")" bash bench/run_scaling.sh "$O/raw_scaling.toml" > "$O/scaling.txt" 2>&1
   stamp "scaling: status $?"
   cp "$O"/scaling/scaling_*.csv "$O/scaling_results.csv" 2>/dev/null
+fi
+
+if want bulk; then  # the raw-biomass heap of the calibration (3,700 needles, 11,100 spheres) on the GPU
+  stamp "5. bulk test on the GPU: the raw heap (cases/calibration/base_raw.toml + heap_raw.toml)"
+  cat cases/calibration/base_raw.toml cases/calibration/heap_raw.toml > "$O/raw_heap.toml"
+  s0=$(date +%s)
+  timeout "$(lim "${GPU_LEASE_BULK_S:-150}")" build-gpu/biodem run "$O/raw_heap.toml" --out "$O/raw_heap" --device gpu > "$O/raw_heap.txt" 2>&1
+  stamp "raw heap: status $? after $(( $(date +%s) - s0 )) s (the CPU engine: 25-49 min on one core, docs/calibration.md)"
+  grep -h "phase '.*' ends\|sinks removed\|WARNING" "$O/raw_heap/run.log" 2>/dev/null | cut -c1-200 | tee -a "$O/lease.log"
+  cp "$O/raw_heap/responses.csv" "$O/raw_heap_results.csv" 2>/dev/null
 fi
 
 collect
