@@ -248,9 +248,6 @@ class Simulation {
   void require_not_ahead() const;
   void update_spheres_from_bodies();
   void place_spheres_of(std::size_t b);
-  /// Half kick, drift and placement of every body's spheres; true when a sphere moved more than
-  /// half the skin since the last list build (or the list has no build positions).
-  bool kick_drift_place();
   int drift_bodies(std::size_t b0, std::size_t b1, bool have_built, double limit2);
   /// drift_bodies; with KickFirst preceded, body by body, by reduce_and_kick(.., true)'s work.
   template <bool KickFirst>
