@@ -614,7 +614,7 @@ class Engine final : public DeviceEngine {
   // Force evaluations made with the current list, the one at its build positions included (the
   // host's at upload; the first step's after a rebuild at a check).
   std::uint64_t forces_on_list_ = 0;
-  /// A lost body (SPEC 10; [run] lost_particles = "stop", the GPU engine's only choice): the CPU
+  /// A lost body (SPEC 10; [run] lost_particles = "stop"; "remove" is apply_sinks' test): the CPU
   /// engine tests every body at each list build. Here the list check's box of the sphere centres
   /// says when one has left: a sphere beyond the lost region by more than the largest bounding
   /// radius belongs to a body whose centre is outside it (x and y past R + r_b of a drum, or a
