@@ -75,6 +75,7 @@ M = {
  "42": ("GPU: a sphere past half the skin never stops the run", [("src/gpu/engine_impl.hpp", "  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1))", "  if (moved > half_skin && false)", 1)]),
  "43": ("GPU: a removal's upload counted as forces at the new list's positions", [("src/gpu/engine_impl.hpp", "  forces_on_list_ = 0;  // (the host's forces are of the step before", "  // (the host's forces are of the step before", 1)]),
  "44": ("CPU: a body drifted into a sink does not leave the one-region step (regression tier)", [("src/sim/simulation_step.cpp", "        if (k.contains(bodies_.position_m[b])) moved = 1;", "        if (k.contains(bodies_.position_m[b])) moved = 0;", 1)]),
+ "45": ("GPU: a removal's upload times the kernel sets again (regression tier)", [("src/gpu/engine_impl.hpp", "  if (timed_choice() && !kept.under_way()) {", "  if (false && !kept.under_way()) {", 1)]),
 }
 
 

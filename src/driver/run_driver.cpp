@@ -326,6 +326,9 @@ RunSummary Runner::run() {
   else
     log_ << " (" << rate / omp_get_max_threads() << " per thread), neighbour builds " << sim_.neighbor_list().builds()
          << "\n";
+  if (dev_ && dev_->removal_tests())
+    log_ << "GPU removal tests (sinks, lost bodies; every 10th step): " << dev_->removal_tests() << ", "
+         << dev_->removal_uploads() << " of them removed bodies (a download and an upload each)\n";
   if (dev_) log_ << "GPU contact kernels: " << dev_->contact_kernels() << "\n";
   if (dev_) log_ << "GPU list build: " << dev_->list_build_kernel() << ", " << dev_->grouped_list_builds() << " of "
                  << dev_->list_builds() << " builds grouped\n";

@@ -123,6 +123,10 @@ class DeviceEngine {
   /// them started on the device, so without waiting for it (all but the first after an upload;
   /// docs/gpu.md).
   virtual std::uint64_t waitless_list_checks() const = 0;
+  /// Removal tests (sinks, lost bodies with lost_particles = "remove": a count on the device
+  /// every 10th step) made, and those that removed bodies (each a download and an upload).
+  virtual std::uint64_t removal_tests() const = 0;
+  virtual std::uint64_t removal_uploads() const = 0;
   /// The list build's rows by a group of lanes per sphere (BuildRowsGrouped: 16 lanes on a GPU,
   /// BIODEM_GPU_BUILD_LANES; one thread running the same code on CPU threads) or by one thread
   /// per sphere scanning its 27 cells (BuildRows): the same rows and history, so the same bits.

@@ -951,6 +951,8 @@ class NamedErrorsEngine final : public DeviceEngine {
   void set_check_every(std::uint32_t steps) override { e_.set_check_every(steps); }
   std::uint64_t list_builds() const override { return e_.list_builds(); }
   std::uint64_t waitless_list_checks() const override { return e_.waitless_list_checks(); }
+  std::uint64_t removal_tests() const override { return e_.removal_tests(); }
+  std::uint64_t removal_uploads() const override { return e_.removal_uploads(); }
   void set_grouped_list_build(bool on) override { e_.set_grouped_list_build(on); }
   std::uint64_t grouped_list_builds() const override { return e_.grouped_list_builds(); }
   std::string list_build_kernel() const override { return e_.list_build_kernel(); }

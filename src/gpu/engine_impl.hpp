@@ -265,6 +265,8 @@ class Engine final : public DeviceEngine {
   std::uint64_t fused_steps() const override { return fused_units_; }
   std::uint64_t sums_in_kick_steps() const override { return summed_in_kick_; }
   std::uint64_t waitless_list_checks() const override { return waitless_checks_; }
+  std::uint64_t removal_tests() const override { return sink_tests_; }
+  std::uint64_t removal_uploads() const override { return sink_removals_; }
   void set_grouped_list_build(bool on) override { grouped_build_ = on; }
   std::uint64_t grouped_list_builds() const override { return grouped_builds_; }
   std::string list_build_kernel() const override {
@@ -643,7 +645,7 @@ class Engine final : public DeviceEngine {
     return (kSinkEvery - host_.step_count() % kSinkEvery) % kSinkEvery;
   }
   vec<sim::SinkSpec> sinks_;
-  std::uint64_t sink_removals_ = 0;  // sink tests that removed bodies
+  std::uint64_t sink_tests_ = 0, sink_removals_ = 0;  // removal tests made, and those that removed bodies
   // The list check's motion, queued by run_units before the last step of each run of steps
   // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
   // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
@@ -2014,6 +2016,7 @@ inline void Engine::check_lost(const Box& box) {
 inline bool Engine::apply_sinks() {
   const auto& sinks = host_.sinks();
   if ((sinks.empty() && !removes_lost()) || nb() == 0) return false;
+  ++sink_tests_;
   auto count = [this](const auto& f) {
     return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
                                     thrust::counting_iterator<std::uint32_t>(nb()), f, 0u,
@@ -2057,7 +2060,16 @@ inline bool Engine::apply_sinks() {
   host_.apply_sinks();
   if (removes_lost()) host_.check_lost_bodies();  // (removes and counts them)
   if (host_.bodies().size() == before) return false;  // (a body between the radii: kept, nothing to upload)
+  // The kernel set chosen by timing stays: a few bodies fewer do not change which set is the
+  // fastest, and an upload would time them all again (a bulk test removes bodies hundreds of
+  // times). A timing under way starts again.
+  const TimedChoice kept = tuning_;
+  const std::uint64_t kept_since = since_choice_;
   upload();
+  if (timed_choice() && !kept.under_way()) {
+    tuning_ = kept;
+    since_choice_ = kept_since;
+  }
   forces_on_list_ = 0;  // (the host's forces are of the step before: none yet at the new list's positions)
   if (n_moving_walls_) to_device(wall_clock_, clock);
   ++sink_removals_;

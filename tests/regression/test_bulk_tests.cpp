@@ -18,7 +18,7 @@ namespace {
 /// Runs `case_file` with the given text replacements; returns the responses by name.
 std::map<std::string, double> run_bulk(const std::string& case_file, const std::string& tag,
                                        const std::vector<std::pair<std::string, std::string>>& edits,
-                                       const std::string& device = "cpu") {
+                                       const std::string& device = "cpu", const std::string& env = "") {
   std::string text = slurp(source_dir() + "/tests/cases/" + case_file);
   for (const auto& [from, to] : edits) {
     std::size_t at = 0, n = 0;
@@ -32,7 +32,7 @@ std::map<std::string, double> run_bulk(const std::string& case_file, const std::
   const std::string d = fresh_dir("bulk_" + tag);
   fs::create_directories(d);
   { std::ofstream(d + "/case.toml") << text; }
-  const auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1 --device " + device);
+  const auto r = run_command(env + biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1 --device " + device);
   EXPECT_EQ(r.status, 0) << r.output;
   std::map<std::string, double> out;
   const auto c = read_csv(d + "/out/responses.csv");
@@ -139,11 +139,14 @@ TEST(BulkTests, RetainmentRisesWithCohesion) {
 // translating wall and the beads that flow out fall into a sink. Measured: retainment 0.6686
 // (CPU engine) and 0.6629 (GPU engine), 232 and 236 beads removed; the two differ as runs whose
 // contact sums are added in another order do. A gate that did not rise keeps every bead
-// (retainment 1); sinks that removed nothing would leave 0 in run.log.
+// (retainment 1); sinks that removed nothing would leave 0 in run.log. The GPU run times its
+// kernel sets as on a GPU (BIODEM_GPU_FORCES=timed; the same bits whatever the set): the choice
+// made stays across the removals' uploads (4 choices in the run: the uploads of the two
+// insertion waves and the phase starts; 93 and 98 when each removal timed the sets again).
 TEST(BulkTests, ShearBoxOnTheGpuEngineAsOnTheCpuEngine) {
   const std::vector<std::pair<std::string, std::string>> none;  // the case as it is
   auto cpu = run_bulk("shear_box_tiny.toml", "shear_cpu", none);
-  auto gpu = run_bulk("shear_box_tiny.toml", "shear_gpu", none, "gpu-emulated");
+  auto gpu = run_bulk("shear_box_tiny.toml", "shear_gpu", none, "gpu-emulated", "BIODEM_GPU_FORCES=timed ");
   EXPECT_EQ(gpu["at_rest"], 1.0);
   EXPECT_GT(cpu["retainment_ratio"], 0.5);
   EXPECT_LT(cpu["retainment_ratio"], 0.85);
@@ -156,6 +159,13 @@ TEST(BulkTests, ShearBoxOnTheGpuEngineAsOnTheCpuEngine) {
   std::printf("[measured] GPU engine's sink removed %d beads\n", removed);
   EXPECT_GT(removed, 150);
   EXPECT_LT(removed, 350);
+  const auto tests_at = log.find("GPU removal tests (sinks, lost bodies; every 10th step): ");
+  ASSERT_NE(tests_at, std::string::npos) << log;
+  const auto ch = log.find(" choice(s) in the run");
+  ASSERT_NE(ch, std::string::npos) << log;
+  const int choices = std::stoi(log.substr(log.rfind('(', ch) + 1));
+  std::printf("[measured] kernel-set choices in the GPU run: %d\n", choices);
+  EXPECT_LE(choices, 8);
 }
 
 // The shipped raw-biomass bulk tests (cases/calibration, base merged in) are valid cases.
