@@ -96,7 +96,7 @@ void Simulation::step(bool next_follows) {
   // next_follows the next step's drift). A rebuild or a sink (which removes the drifted bodies
   // serially) leaves the region after the drift; the rest of the step then runs as separate
   // passes. (Before 2026-11-28 a scene with sinks ran every step as separate passes, the drift
-  // its own: 13-17 % slower on the small glass drum, 2 threads, with the same bits.)
+  // its own: 8-10 % slower on the small glass drum with a sink, 2 threads, with the same bits.)
   const bool ahead_next = next_follows;
   if (!step_in_one_region(ahead_next)) {  // drifted, and a rebuild is due (or a body is in a sink)
     const Clock::time_point t1 = profile_on_ ? Clock::now() : Clock::time_point{};
