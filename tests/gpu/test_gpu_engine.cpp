@@ -37,6 +37,14 @@ gpu::Backend backend_under_test() {
   return v && std::string(v) == "1" ? gpu::Backend::Cuda : gpu::Backend::HostThreads;
 }
 std::unique_ptr<gpu::DeviceEngine> gpu_engine(sim::Simulation& s) { return gpu::make_device_engine(backend_under_test(), s); }
+/// The engine with its list checks queued ("1") or waiting for their reduction ("0",
+/// BIODEM_GPU_QUEUED_CHECK, read when the engine is made).
+std::unique_ptr<gpu::DeviceEngine> gpu_engine_checks(sim::Simulation& s, const char* queued) {
+  ::setenv("BIODEM_GPU_QUEUED_CHECK", queued, 1);
+  auto e = gpu_engine(s);
+  ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
+  return e;
+}
 
 double uniform(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
 
@@ -166,9 +174,7 @@ TEST(GpuEngine, BeadFasterThanHalfTheSkinPerStepMatchesCpu) {
     s->set_skin(5e-7);
   }
   ASSERT_GT(2.0 * su.dt_s, 0.5 * gs.skin_m());
-  ::setenv("BIODEM_GPU_QUEUED_CHECK", queued, 1);
-  auto eng = gpu_engine(gs);
-  ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
+  auto eng = gpu_engine_checks(gs, queued);
   eng->upload();
   const std::uint64_t steps = 7000, run = 37;
   for (std::uint64_t k = 0; k < steps;) {
@@ -204,14 +210,12 @@ TEST(GpuEngine, BeadFasterThanHalfTheSkinPerStepMatchesCpu) {
 TEST(GpuEngine, SphereOutrunningTheListCheckStopsTheRun) {
   for (const char* queued : {"1", "0"}) {
     SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
-    ::setenv("BIODEM_GPU_QUEUED_CHECK", queued, 1);
     SimSetup su = bead_setup(0.5, 0.3);
     sim::Simulation gs = make_simulation(su);
     add_particle(gs, 0, {-0.85e-3, 0, 0});
     add_particle(gs, 0, {0.85e-3, 0, 0});
     gs.set_skin(1e-7);
-    auto eng = gpu_engine(gs);
-    ::unsetenv("BIODEM_GPU_QUEUED_CHECK");
+    auto eng = gpu_engine_checks(gs, queued);
     eng->upload();
     try {
       eng->advance(200);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "walls/wall_geometry.hpp"
+#include "walls/wall_translation.hpp"
 
 using namespace biodem;
 using namespace biodem::walls;
@@ -99,4 +100,26 @@ TEST(WallGeometry, TranslationAddsToSurfaceVelocity) {
   const Vec3 v = wall_velocity(g, {1, 0, 0});
   EXPECT_NEAR(v.y, 2.0, 1e-15);
   EXPECT_NEAR(v.z, 0.2, 1e-15);
+}
+
+// A prescribed translation (walls/wall_translation.hpp, both engines): at rest at the initial
+// point before the start, moved by (t - start) v while it moves, at rest at the end point after;
+// the surface velocity is v from the start (included) to the end (excluded). A sign or a factor
+// of 2 on the time moved puts the point 0.02 m off at t = 0.4 s.
+TEST(WallTranslation, PlacedByItsScheduleBeforeDuringAndAfter) {
+  const WallTranslation m{{0.0, 1.0, 0.0}, {0.0, 0.05, 0.0}, 0.2, 0.6};
+  WallGeometry g;
+  struct At {
+    double t, y, vy;
+  };
+  for (const At& a : {At{0.1, 1.0, 0.0}, At{0.2, 1.0, 0.05}, At{0.4, 1.01, 0.05}, At{0.6, 1.02, 0.0}, At{0.9, 1.02, 0.0}}) {
+    place_translating_wall(g, m, a.t);
+    EXPECT_NEAR(g.point_m.y, a.y, 1e-15) << "t = " << a.t;
+    EXPECT_EQ(g.point_m.x, 0.0);
+    EXPECT_EQ(g.velocity_m_s.y, a.vy) << "t = " << a.t;
+  }
+  const WallTranslation down{{0.0, 1.0, 0.0}, {0.0, -0.05, 0.0}, 0.2, 0.6};
+  place_translating_wall(g, down, 0.4);
+  EXPECT_NEAR(g.point_m.y, 0.99, 1e-15);
+  EXPECT_EQ(g.velocity_m_s.y, -0.05);
 }
