@@ -381,4 +381,23 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> brute_force_overlaps(const 
   return out;
 }
 
+std::size_t pairs_missing_within_cutoff(const VerletList& L, const state::SphereStore& s,
+                                        const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs) {
+  const Domain& dom = L.domain();
+  const Vec3 len = dom.length_m();
+  std::size_t count = 0;
+  for (const auto& [p, q] : pairs) {
+    const std::uint32_t a = std::min(p, q), b = std::max(p, q);
+    if (s.body[a] == s.body[b]) continue;
+    const auto row = L.j.begin() + L.row_start[a], end = L.j.begin() + L.row_start[a + 1];
+    if (std::find(row, end, b) != end) continue;
+    Vec3 d = s.position_m[a] - s.position_m[b];
+    for (int k = 0; k < 3; ++k)
+      if (dom.periodic[k]) d[k] -= len[k] * std::round(d[k] / len[k]);
+    const double cut = s.radius_m[a] + s.radius_m[b] + L.skin_m();
+    if (norm(d) < cut * (1.0 - 1e-12)) ++count;  // (a pair at the cut-off itself may go either way)
+  }
+  return count;
+}
+
 }  // namespace biodem::neighbor

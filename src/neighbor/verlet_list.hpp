@@ -12,6 +12,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "contact/contact_model.hpp"
@@ -115,5 +116,12 @@ class VerletList {
 /// testing the list. Returns (i, j) sorted.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> brute_force_overlaps(const state::SphereStore& spheres,
                                                                           const Domain& domain);
+
+/// How many of the pairs (sphere indices, either order) the list lacks although their centres
+/// are within its cut-off, r_i + r_j + skin (minimum image on periodic axes), at the positions of
+/// s: pairs lost by bookkeeping rather than by motion. Pairs of one body are never listed and
+/// not counted. (The GPU engine's check of the touching pairs it hands to a host list.)
+std::size_t pairs_missing_within_cutoff(const VerletList& list, const state::SphereStore& s,
+                                        const std::vector<std::pair<std::uint32_t, std::uint32_t>>& pairs);
 
 }  // namespace biodem::neighbor

@@ -228,6 +228,36 @@ TEST(GpuEngine, SphereOutrunningTheListCheckStopsTheRun) {
   }
 }
 
+// The same beads with a third one inside a sink: the removal test at step 10 falls between the
+// check after one step and the next, by which time the beads have passed half the skin at
+// positions the list gave forces at. The removal's download and upload (a new list at the
+// positions of now) must not hide that: it stops the run there as the next check would have.
+TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtARemoval) {
+  for (const char* queued : {"1", "0"}) {
+    SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
+    SimSetup su = bead_setup(0.5, 0.3);
+    sim::Simulation gs = make_simulation(su);
+    add_particle(gs, 0, {-0.85e-3, 0, 0});
+    add_particle(gs, 0, {0.85e-3, 0, 0});
+    sim::SinkSpec k;
+    k.point_m = {0.0, -5e-3, 0.0};
+    gs.add_sink(k);
+    add_particle(gs, 0, {0, -10e-3, 0});
+    gs.set_skin(1e-7);
+    auto eng = gpu_engine_checks(gs, queued);
+    eng->upload();
+    try {
+      eng->advance(200);
+      FAIL() << "a removal must not hide a sphere past half the skin at positions the list gave forces at";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("more than half the skin"), std::string::npos) << what;
+      EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
+    }
+    EXPECT_EQ(eng->removal_uploads(), 0u) << "stopped at the removal test, before removing";
+  }
+}
+
 // Translating walls (bulk tests: the heap's lifted cylinder, the shear box's gate). A plate
 // scheduled to move from t = 0.2 ms to 1.2 ms at 1 m/s along +x starts 0.5 mm from a bead at rest
 // (beyond its reach, radius + skin, at every list build before it moves: only the translating

@@ -515,3 +515,48 @@ TEST(VerletList, SphereTooManyPeriodsAwayIsAnError) {
     EXPECT_NE(std::string(e.what()).find("sphere 5 "), std::string::npos) << e.what();
   }
 }
+
+// pairs_missing_within_cutoff (the GPU engine's check of the touching pairs it hands to a new
+// host list, neighbor/verlet_list.hpp): listed pairs and pairs beyond r_i + r_j + skin are not
+// counted, in either order; a pair brought within the cut-off after the build is, also through
+// a periodic image (minimum image), but not one period away on a bounded axis.
+TEST(VerletList, PairsMissingWithinCutoffCountsOnlyGapsOfTheList) {
+  const Domain dom = make_domain({false, false, true});
+  state::SphereStore s = make_packing(41, 300, dom, false);
+  VerletList L;
+  L.configure(dom, kSkin);
+  L.build(s);
+  const PairList listed = list_pairs(L, s.size());
+  ASSERT_GT(listed.size(), 50u);
+  PairList reversed;
+  for (const auto& [i, j] : listed) reversed.emplace_back(j, i);
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, listed), 0u);
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, reversed), 0u);
+  // Every pair of sphere 0 beyond the cut-off: none counted.
+  const PairList within = brute_force_within(s, dom, kSkin);
+  PairList beyond;
+  for (std::uint32_t j = 1; j < s.size(); ++j)
+    if (!std::binary_search(within.begin(), within.end(), std::make_pair(0u, j))) beyond.emplace_back(j, 0u);
+  ASSERT_GT(beyond.size(), 200u);
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, beyond), 0u);
+  // Sphere 0 moved next to a sphere q it is not listed with (no rebuild).
+  const std::uint32_t q = beyond.front().first;
+  const double cut = s.radius_m[0] + s.radius_m[q] + kSkin;
+  const PairList one{{0u, q}}, one_reversed{{q, 0u}};
+  auto place = [&](Vec3 shift) { s.position_m[0] = s.position_m[q] + shift; };
+  place({0.99 * cut, 0.0, 0.0});
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 1u);
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one_reversed), 1u);
+  place({1.01 * cut, 0.0, 0.0});
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 0u);
+  place({0.0, 0.0, 0.99 * cut + kL});  // z periodic: within the cut-off through the image
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 1u);
+  place({0.0, 0.0, 0.99 * cut - 2.0 * kL});
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 1u);
+  place({0.99 * cut + kL, 0.0, 0.0});  // x bounded: one box length away is far
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 0u);
+  // Spheres of one body are never listed: not a gap.
+  place({0.5 * cut, 0.0, 0.0});
+  s.body[0] = s.body[q];
+  EXPECT_EQ(pairs_missing_within_cutoff(L, s, one), 0u);
+}
