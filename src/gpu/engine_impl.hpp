@@ -1103,6 +1103,11 @@ inline void Engine::sync_walls() {
 }
 
 inline void Engine::upload() {
+  // An upload replaces the device's list with one built at the positions of now (an insertion
+  // wave, a removal): a sphere already past half the skin at positions the old list gave forces
+  // at, where contacts may have been missed since the last check, stops the run here as that
+  // check would have, instead of being hidden by the new list.
+  if (ns() && builds_) check_motion(motion_now(), 0);
   invalidate_graphs();
   const auto& pt = host_.pair_table();
   if (host_.walls().size() > kMaxDeviceWalls)
@@ -2055,9 +2060,6 @@ inline bool Engine::apply_sinks() {
     poll_settle();
     if (settle_host_.settled) return false;
   }
-  // The upload below builds a new list at the positions of now: a sphere already past half the
-  // skin at positions the old list gave forces at stops the run here, as the next check would.
-  check_motion(motion_now(), 0);
   download(true, true);
   const std::size_t before = host_.bodies().size();
   host_.apply_sinks();

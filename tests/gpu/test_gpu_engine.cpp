@@ -228,34 +228,45 @@ TEST(GpuEngine, SphereOutrunningTheListCheckStopsTheRun) {
   }
 }
 
-// The same beads with a third one inside a sink: the removal test at step 10 falls between the
-// check after one step and the next, by which time the beads have passed half the skin at
-// positions the list gave forces at. The removal's download and upload (a new list at the
-// positions of now) must not hide that: it stops the run there as the next check would have.
-TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtARemoval) {
-  for (const char* queued : {"1", "0"}) {
-    SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
-    SimSetup su = bead_setup(0.5, 0.3);
-    sim::Simulation gs = make_simulation(su);
-    add_particle(gs, 0, {-0.85e-3, 0, 0});
-    add_particle(gs, 0, {0.85e-3, 0, 0});
-    sim::SinkSpec k;
-    k.point_m = {0.0, -5e-3, 0.0};
-    gs.add_sink(k);
-    add_particle(gs, 0, {0, -10e-3, 0});
-    gs.set_skin(1e-7);
-    auto eng = gpu_engine_checks(gs, queued);
-    eng->upload();
-    try {
-      eng->advance(200);
-      FAIL() << "a removal must not hide a sphere past half the skin at positions the list gave forces at";
-    } catch (const Error& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("more than half the skin"), std::string::npos) << what;
-      EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
+// The same beads, and an upload between two checks (each replaces the list with one built at the
+// positions of now): a removal (a third bead inside a sink, removal test at step 10) and a plain
+// download and upload after 10 steps, as for an insertion wave. The check after one step set the
+// next 10 steps later, by which time the beads have passed half the skin at positions the list
+// gave forces at. The new list must not hide that: the upload stops the run as the next check
+// would have (before, the run went on).
+TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtAnUpload) {
+  for (const bool sink : {true, false})
+    for (const char* queued : {"1", "0"}) {
+      SCOPED_TRACE(std::string(sink ? "removal" : "download and upload") + ", BIODEM_GPU_QUEUED_CHECK=" + queued);
+      SimSetup su = bead_setup(0.5, 0.3);
+      sim::Simulation gs = make_simulation(su);
+      add_particle(gs, 0, {-0.85e-3, 0, 0});
+      add_particle(gs, 0, {0.85e-3, 0, 0});
+      if (sink) {
+        sim::SinkSpec k;
+        k.point_m = {0.0, -5e-3, 0.0};
+        gs.add_sink(k);
+        add_particle(gs, 0, {0, -10e-3, 0});
+      }
+      gs.set_skin(1e-7);
+      auto eng = gpu_engine_checks(gs, queued);
+      eng->upload();
+      try {
+        if (sink) {
+          eng->advance(200);
+        } else {
+          ASSERT_EQ(eng->advance(10).steps, 10u);
+          eng->download(true);
+          eng->upload();
+        }
+        ADD_FAILURE() << "an upload must not hide a sphere past half the skin at positions the list gave forces at";
+      } catch (const Error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("more than half the skin"), std::string::npos) << what;
+        EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
+      }
+      EXPECT_EQ(eng->removal_uploads(), 0u);
     }
-    EXPECT_EQ(eng->removal_uploads(), 0u) << "stopped at the removal test, before removing";
-  }
 }
 
 // Translating walls (bulk tests: the heap's lifted cylinder, the shear box's gate). A plate
