@@ -19,10 +19,11 @@
 #      and without graphs; (3e) the same run with ReduceKick and KickDriftSpheres launched
 #      separately instead of the fused ReduceKickDrift (BIODEM_GPU_FUSE=0); (3f) the needle drum
 #      and the settle drum of (3d) with the bodies kept in the host's order on the device
-#      instead of sorted by cell (BIODEM_GPU_SORT=0); (3g, on a GPU) no CUDA graph capture
-#      failed in the needle drum's run; (3h) a fault injected into the device at step 3,000
+#      instead of sorted by cell (BIODEM_GPU_SORT=0); (3g) no CUDA graph capture failed and no
+#      queued path was given up in any run, and the needle and settle drums ran graphs (on a GPU); (3h) a fault injected into the device at step 3,000
 #      (BIODEM_TEST_GPU_FAULT_AT_STEP; on a GPU also met inside Thrust) ends the run with one
-#      error line and status 2, not std::terminate;
+#      error line and status 2, not std::terminate; (3l) each queued list check's read equal to
+#      a second read after waiting for the stream (BIODEM_GPU_VERIFY_QUEUED=1);
 #      (3i) each contact kernel set forced (the entry kernels also with their sums by the row
 #      lanes, BIODEM_GPU_SUM_LANES=1, and over every row entry instead of the pair list,
 #      BIODEM_GPU_PAIR_LIST=full; the one-thread walk and the entry kernels reading the spheres'
@@ -248,16 +249,22 @@ expect_same "3b. same run, every loop on 2 threads" "$([ $sp -eq 0 ] && [ $sa -e
 BIODEM_GPU_GRAPH=0 run_biodem needles_plain "$needles" "$OUT/needles_plain" --device "$DEVICE"; sg=$?
 expect_same "3c. same run without CUDA graphs" "$([ $sg -eq 0 ] && [ $sa -eq 0 ] && echo 1)" \
   "a run failed (logs/needles_plain.txt)" "$OUT/needles_a" "$OUT/needles_plain" "byte-identical to the run with graphs"
-# 3g. The graphs were captured and ran: a capture that fails (an operation in the steps that a
-# CUDA graph cannot hold, such as the list check's queued reduction and copy) falls back to plain
-# launches with one line on stderr, the same results but slower; on a GPU that line fails this
-# check. (Emulated there are no graphs.)
-if [ "$DEVICE" = gpu ]; then
-  if grep -l 'CUDA graph capture failed' "$logs"/needles_a.txt > /dev/null 2>&1; then
-    record "3g. CUDA graphs captured" FAIL "$(grep -h -m1 'CUDA graph capture failed' "$logs"/needles_a.txt | cut -c1-160)"
-  else
-    record "3g. CUDA graphs captured" PASS "no capture failure in the needle drum's run"
-  fi
+# 3l. The queued list checks read what the device wrote: with BIODEM_GPU_VERIFY_QUEUED=1 each
+# read of the reduction queued inside a run of steps (a CUDA graph's event record) is followed by
+# a wait for the whole stream and a second read, and a difference stops the run. A stale read
+# changes no byte unless a sphere passes half the skin, so only this check can see one. The run
+# must be byte-identical to (3) and its run.log must count queued reads (emulated the switch
+# does nothing: the same run, the same count).
+BIODEM_GPU_VERIFY_QUEUED=1 run_biodem needles_verify "$needles" "$OUT/needles_verify" --device "$DEVICE"; sv=$?
+nq=$(grep -o 'kernel by kernel; [0-9]* list checks read' "$OUT/needles_verify/run.log" 2>/dev/null | grep -o '[0-9][0-9]*' | head -n 1)
+if [ $sv -ne 0 ] || [ $sa -ne 0 ]; then
+  record "3l. queued list checks verified" FAIL "a run failed (logs/needles_verify.txt)"
+elif [ -z "$nq" ] || [ "$nq" -eq 0 ]; then
+  record "3l. queued list checks verified" FAIL "run.log counts no queued list check read (${nq:-no line})"
+elif ! diff=$(same_files "$OUT/needles_a" "$OUT/needles_verify"); then
+  record "3l. queued list checks verified" FAIL "differ: $(echo $diff)"
+else
+  record "3l. queued list checks verified" PASS "$nq queued reads, each equal to a second read after a wait; byte-identical to (3)"
 fi
 # 3h. A kernel that faults (on a GPU it traps, which breaks the CUDA context; emulated the
 # error it would give) ends the run with one error line and status 2: not std::terminate from a
@@ -590,6 +597,35 @@ else
   [ $ok = 1 ] && record "6b. bulk test (shear box)" PASS "$detail" || record "6b. bulk test (shear box)" FAIL "$detail"
 fi
 
+# 3g. The graphs were captured and ran, and no run gave up a queued path. A capture that fails
+# (an operation in the steps that a CUDA graph cannot hold) falls back to plain launches with one
+# line on stderr, and a queued list check that fails falls back to waiting ones ("for the rest of
+# the run"): the same bytes but slower, so no byte comparison sees either. Every run above is
+# read for those lines (not the runs with faults injected or graphs off), and run.log's count of
+# the runs of steps launched as graphs must be above 0 in the needle and settle drums' runs (the
+# settle criterion's graphs). Emulated there are no graphs: the count must be 0 there.
+graph_ok=1; graph_detail=""
+for f in "$logs"/*.txt; do
+  case "$(basename "$f")" in ctest_*|build*|*fault*|*plain*|sanitizer_*|bench*) continue ;; esac
+  if line=$(grep -h -m1 'CUDA graph capture failed\|for the rest of the run' "$f"); then
+    graph_ok=0; graph_detail="$graph_detail $(basename "$f"): $(echo "$line" | cut -c1-140);"
+  fi
+done
+for run in needles_a settle_graph; do
+  n=$(grep -o 'GPU runs of steps: [0-9]* launched as CUDA graphs' "$OUT/$run/run.log" 2>/dev/null | grep -o '[0-9][0-9]*' | head -n 1)
+  if [ -z "$n" ]; then
+    graph_ok=0; graph_detail="$graph_detail $run: no 'GPU runs of steps' line in run.log;"
+  elif [ "$DEVICE" = gpu ] && [ "$n" -eq 0 ]; then
+    graph_ok=0; graph_detail="$graph_detail $run: no run of steps launched as a graph;"
+  elif [ "$DEVICE" != gpu ] && [ "$n" -ne 0 ]; then
+    graph_ok=0; graph_detail="$graph_detail $run: $n graph runs on CPU threads;"
+  else
+    graph_detail="$graph_detail $run: $n graph runs;"
+  fi
+done
+[ $graph_ok = 1 ] && record "3g. CUDA graphs ran, no fallback" PASS "no capture failure or fallback line;$graph_detail" ||
+  record "3g. CUDA graphs ran, no fallback" FAIL "$graph_detail"
+
 # -------------------------------------------------------------------- 2. compute-sanitizer (run after 6: the slowest check)
 if [ "$DEVICE" = gpu ]; then
   san=$(command -v compute-sanitizer || echo "${CUDA_HOME:-/usr/local/cuda}/bin/compute-sanitizer")
@@ -597,10 +633,13 @@ if [ "$DEVICE" = gpu ]; then
   # from 15,000 spheres): memcheck and initcheck run again with the entry kernels.
   # (memcheck and racecheck with the entry kernels' sums by the row lanes, sumlanes, clean in
   # leases 7-9 on code unchanged since, are left to GPU_CHECK_SANITIZER_JOBS since 2026-11-27, for
-  # the three runs of the walks sharing their touching contacts; the last three, the walk split
-  # over 4 lanes per row and the clumps' body kernel by lanes, have never run on a GPU: at the
-  # end, where a lease cut short loses them first.)
-  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups synccheck:packedgroups racecheck:packedsplit4 synccheck:packedsplit4 synccheck:records}; do
+  # the three runs of the walks sharing their touching contacts. The racecheck and synccheck of
+  # the walk split over 4 lanes per row, the synccheck of the records and the clumps' body
+  # kernel by lanes, and the racecheck of the clumps' packed walk with the body update have never
+  # run on a GPU: right after the first memcheck since 2026-11-28, so that a lease cut short
+  # keeps them. The last two: the grouped list build at 2 lanes per sphere in blocks of 512 on
+  # the wide-row scene, groups of lanes in warps filled otherwise than by default.)
+  for job in ${GPU_CHECK_SANITIZER_JOBS-memcheck:auto racecheck:packedsplit4 synccheck:packedsplit4 synccheck:records racecheck:packedgroups initcheck:auto racecheck:auto synccheck:auto memcheck:entries memcheck:walkkick memcheck:fixed memcheck:records memcheck:kickgroups synccheck:kickgroups racecheck:packed memcheck:packedgroups synccheck:packedgroups racecheck:build2 synccheck:build2}; do
     tool=${job%:*} forces=${job#*:}
     scene=tests/cases/gpu_check_drum40k.toml scene_name="40,200 spheres"
     case "$forces" in
@@ -624,6 +663,9 @@ if [ "$DEVICE" = gpu ]; then
                     envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_WALK_PACK=1 BIODEM_GPU_PACK_SPLIT=4) ;;
       packedgroups) what=", the clumps' walk with the body update by groups, sharing the warp's touching contacts"
                     envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_WALK_KICK=1 BIODEM_GPU_WALK_PACK=1) ;;
+      build2) what=", the grouped list build at 2 lanes per sphere, blocks of 512"
+              envs=(BIODEM_GPU_BUILD_LANES=2 BIODEM_GPU_BLOCK=512)
+              scene=tests/cases/gpu_wide_rows_tiny.toml scene_name="the wide-row scene, single spheres" ;;
       records) what=", row walk in one thread reading the spheres' records, own sphere held, the clumps' body kernel by lanes"
                envs=(BIODEM_GPU_FORCES=rows BIODEM_GPU_ROW_LANES=1 BIODEM_GPU_RECORDS=1 BIODEM_GPU_OWN_SPHERE=1 BIODEM_GPU_BODY_LANES=auto) ;;
       *) what=""; envs=(BIODEM_GPU_FORCES=$forces) ;;

@@ -329,6 +329,10 @@ RunSummary Runner::run() {
   if (dev_ && dev_->removal_tests())
     log_ << "GPU removal tests (sinks, lost bodies; every 10th step): " << dev_->removal_tests() << ", "
          << dev_->removal_uploads() << " of them removed bodies (a download and an upload each)\n";
+  if (dev_)
+    log_ << "GPU runs of steps: " << dev_->graph_runs() << " launched as CUDA graphs, " << dev_->plain_runs()
+         << " kernel by kernel; " << dev_->waitless_list_checks()
+         << " list checks read the motion queued before a run's last step\n";
   if (dev_) log_ << "GPU contact kernels: " << dev_->contact_kernels() << "\n";
   if (dev_) log_ << "GPU list build: " << dev_->list_build_kernel() << ", " << dev_->grouped_list_builds() << " of "
                  << dev_->list_builds() << " builds grouped\n";

@@ -127,6 +127,10 @@ class DeviceEngine {
   /// every 10th step) made, and those that removed bodies (each a download and an upload).
   virtual std::uint64_t removal_tests() const = 0;
   virtual std::uint64_t removal_uploads() const = 0;
+  /// Runs of steps (between two list checks) launched as one CUDA graph, and launched kernel by
+  /// kernel (graphs off, a failed capture, runs longer than a graph holds, CPU threads).
+  virtual std::uint64_t graph_runs() const = 0;
+  virtual std::uint64_t plain_runs() const = 0;
   /// The list build's rows by a group of lanes per sphere (BuildRowsGrouped: 16 lanes on a GPU,
   /// BIODEM_GPU_BUILD_LANES; one thread running the same code on CPU threads) or by one thread
   /// per sphere scanning its 27 cells (BuildRows): the same rows and history, so the same bits.

@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <iostream>
 #include <map>
@@ -113,7 +114,16 @@ class CachedAllocator {
       return p;
     }
     void* p = nullptr;
-    if (const cudaError_t e = cudaMalloc(&p, static_cast<std::size_t>(n)); e != cudaSuccess) {
+    cudaError_t e = cudaMalloc(&p, static_cast<std::size_t>(n));
+    if (e == cudaErrorMemoryAllocation && !free_.empty()) {
+      // The cache holds blocks too small for this request: given back (cudaFree waits for the
+      // device, so no queued work still uses them), then one more try.
+      (void)cudaGetLastError();
+      for (auto& [bytes, q] : free_) (void)cudaFree(q);
+      free_.clear();
+      e = cudaMalloc(&p, static_cast<std::size_t>(n));
+    }
+    if (e != cudaSuccess) {
       (void)cudaGetLastError();
       if (e != cudaErrorMemoryAllocation) throw_cuda(e, "an allocation of temporary storage");
       throw Error("GPU engine: out of device memory (" + std::to_string(n) + " bytes of temporary storage)");
@@ -393,6 +403,8 @@ class PendingCopy {
     check(cudaEventSynchronize(event_));
     return *host_;
   }
+  /// The slot as it is now, without waiting (Pending's check of its own reads).
+  T slot() const { return *host_; }
   void check(cudaError_t e) const {
     if (e != cudaSuccess) throw_cuda(e, what_);
   }
@@ -445,8 +457,22 @@ class Pending {
     copy_.check(cub::DeviceReduce::Reduce(temp_, bytes, input(f), dev_, n, op, init, engine_stream()));
     copy_.enqueue(dev_);
   }
-  /// The result of the last enqueue (waits for it if it is not done).
-  T get() { return copy_.get(); }
+  /// The result of the last enqueue (waits for it if it is not done). With
+  /// BIODEM_GPU_VERIFY_QUEUED=1 (a check of gpu_check.sh), the stream is then waited for and the
+  /// slot read again: a value read before the device wrote it (the event recorded inside a CUDA
+  /// graph not waited for) differs and stops the run. Valid where nothing is enqueued after the
+  /// read's enqueue before get(), as for the list check.
+  T get() {
+    const T v = copy_.get();
+    if (verify_) {
+      copy_.check(cudaStreamSynchronize(engine_stream()));
+      const T again = copy_.slot();
+      if (std::memcmp(&v, &again, sizeof(T)) != 0)
+        throw Error("GPU engine: the list check read its queued reduction before the device had written it "
+                    "(BIODEM_GPU_VERIFY_QUEUED=1)");
+    }
+    return v;
+  }
 
  private:
   template <class F>
@@ -454,6 +480,10 @@ class Pending {
     return thrust::make_transform_iterator(thrust::counting_iterator<std::uint32_t>(0), f);
   }
   PendingCopy<T> copy_{"the list check"};
+  bool verify_ = [] {
+    const char* v = std::getenv("BIODEM_GPU_VERIFY_QUEUED");
+    return v && std::string(v) == "1";
+  }();
   T* dev_ = nullptr;
   void* temp_ = nullptr;
   std::size_t temp_bytes_ = 0;
@@ -953,6 +983,8 @@ class NamedErrorsEngine final : public DeviceEngine {
   std::uint64_t waitless_list_checks() const override { return e_.waitless_list_checks(); }
   std::uint64_t removal_tests() const override { return e_.removal_tests(); }
   std::uint64_t removal_uploads() const override { return e_.removal_uploads(); }
+  std::uint64_t graph_runs() const override { return e_.graph_runs(); }
+  std::uint64_t plain_runs() const override { return e_.plain_runs(); }
   void set_grouped_list_build(bool on) override { e_.set_grouped_list_build(on); }
   std::uint64_t grouped_list_builds() const override { return e_.grouped_list_builds(); }
   std::string list_build_kernel() const override { return e_.list_build_kernel(); }

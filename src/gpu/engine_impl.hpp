@@ -267,6 +267,8 @@ class Engine final : public DeviceEngine {
   std::uint64_t waitless_list_checks() const override { return waitless_checks_; }
   std::uint64_t removal_tests() const override { return sink_tests_; }
   std::uint64_t removal_uploads() const override { return sink_removals_; }
+  std::uint64_t graph_runs() const override { return graph_runs_; }
+  std::uint64_t plain_runs() const override { return plain_runs_; }
   void set_grouped_list_build(bool on) override { grouped_build_ = on; }
   std::uint64_t grouped_list_builds() const override { return grouped_builds_; }
   std::string list_build_kernel() const override {
@@ -646,6 +648,7 @@ class Engine final : public DeviceEngine {
   }
   vec<sim::SinkSpec> sinks_;
   std::uint64_t sink_tests_ = 0, sink_removals_ = 0;  // removal tests made, and those that removed bodies
+  std::uint64_t graph_runs_ = 0, plain_runs_ = 0;     // runs of steps launched as a CUDA graph, and plainly
   // The list check's motion, queued by run_units before the last step of each run of steps
   // (inside the CUDA graph) and read by the next check: whether one is queued and unread, the
   // drifts made so far and when it was queued (the check reads a motion drifts_ - motion_drifts_
@@ -1446,6 +1449,11 @@ inline void Engine::build_list(const Box* known_box) {
   std::uint32_t cap = std::max({rows_.cap, old_rows_.cap, std::uint32_t{16}});
   bool grouped = false;  // the rows kept were built by BuildRowsGrouped
   for (;;) {
+    // The kernels over entries and wall slots index them by a 32-bit (q * n + sphere): checked
+    // before rows of this capacity are made and built.
+    if ((static_cast<std::uint64_t>(cap) + n_walls_) * n > 0xffffffffull)
+      throw Error("GPU engine: " + std::to_string(n) + " spheres with neighbour rows of " + std::to_string(cap) +
+                  " entries and " + std::to_string(n_walls_) + " walls exceed 2^32 entries (32-bit indices)");
     if (rows_.cap != cap || rows_.length.size() != n) rows_.resize(n, cap, ++generation_);
     const RowBuildArgs args{sphere_arrays(), g, raw<std::uint32_t>(sorted_), raw<std::uint32_t>(cell_start_), packed,
                             raw<Int3>(wrap_), raw<Int3>(cell_), old_rows_.arrays(), rows_.arrays(), n, skin_, old_of};
@@ -1467,10 +1475,6 @@ inline void Engine::build_list(const Box* known_box) {
     ++widenings_;
   }
   grouped_builds_ += grouped;
-  // The kernels over entries and wall slots index them by a 32-bit (q * n + sphere).
-  if ((static_cast<std::uint64_t>(rows_.cap) + n_walls_) * n > 0xffffffffull)
-    throw Error("GPU engine: " + std::to_string(n) + " spheres with neighbour rows of " + std::to_string(rows_.cap) +
-                " entries and " + std::to_string(n_walls_) + " walls exceed 2^32 entries (32-bit indices)");
   // Each pair's other entry, for PairEntries (which evaluates a pair once, from its lower-id side).
   launch(rows_.cap * n, MirrorEntries{rows_.arrays(), raw<std::uint32_t>(s_sid_), n, raw<std::uint32_t>(mirror_missing_)});
   if (compact_pairs_) {
@@ -1809,7 +1813,12 @@ inline void Engine::run_units(std::uint32_t units) {
   if (timing && units <= kMostUnitsInAGraph) graphs_.prepare(key, record);
   if (timing) timer_.start();
   const auto t0 = Clock::now();
-  if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) record();
+  if (units > kMostUnitsInAGraph || !graphs_.run(key, record)) {
+    record();
+    ++plain_runs_;
+  } else {
+    ++graph_runs_;
+  }
   if (profile_.on) {
     System::wait();
     profile_.units_s += since(t0);
