@@ -76,6 +76,11 @@ void Runner::insert() {
   for (;;) {
     if (falling) {
       while (insertion_.fall_step < fall_steps) {
+        if (dev_) {  // (runs of steps, as the phases: graphs, queued checks, the timed choice)
+          advance_on_device(fall_steps - insertion_.fall_step,
+                            [this](const gpu::DeviceEngine::Advanced&) { ++insertion_.fall_step; });
+          continue;
+        }
         advance();
         ++insertion_.fall_step;
         after_step();

@@ -62,29 +62,17 @@ void Runner::run_phase_on_device(const PhasePlan& p, std::uint64_t max_steps, st
   if (p.criterion && !settled)
     dev_->begin_settle({p.ke_threshold_j, p.translational, p.min_steps, p.hold_steps}, k, below);
   while (!settled && k < max_steps) {
-    const std::uint64_t n0 = sim_.step_count();
-    const double t0 = sim_.time_s();
-    const gpu::DeviceEngine::Advanced a = dev_->advance(device_run_length(max_steps - k));
-    device_current_ = true;
+    const gpu::DeviceEngine::Advanced a = advance_on_device(max_steps - k, [&](const gpu::DeviceEngine::Advanced& r) {
+      if (p.criterion) below = r.below;
+      ++k;
+      phase_step_ = k;
+      settle_counter_ = below;  // the counter after the run's last step: checkpoints are written only there
+    });
     if (p.criterion) {
       below = a.below;
       settled = a.settled;
     }
     if (a.steps == 0) break;  // (not expected: the criterion was not met before the run)
-    // after_step for each step made, with the clock at that step (the same additions as a step at
-    // a time); only the last one may use the state (device_run_length).
-    sim_.set_step_count(n0);
-    sim_.set_time_s(t0);
-    for (std::uint64_t j = 1; j <= a.steps; ++j) {
-      sim_.set_time_s(sim_.time_s() + sim_.dt_s());
-      sim_.set_step_count(sim_.step_count() + 1);
-      ++k;
-      phase_step_ = k;
-      settle_counter_ = below;  // the counter after the run's last step: checkpoints are written only there
-      defer_stop_ = j < a.steps;
-      after_step();
-    }
-    defer_stop_ = false;
   }
   if (p.criterion) dev_->end_settle();
 }

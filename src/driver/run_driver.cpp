@@ -116,6 +116,27 @@ std::uint64_t Runner::device_run_length(std::uint64_t limit) const {
   return m;
 }
 
+gpu::DeviceEngine::Advanced Runner::advance_on_device(
+    std::uint64_t limit, const std::function<void(const gpu::DeviceEngine::Advanced&)>& each) {
+  const std::uint64_t n0 = sim_.step_count();
+  const double t0 = sim_.time_s();
+  const gpu::DeviceEngine::Advanced a = dev_->advance(device_run_length(limit));
+  device_current_ = true;
+  // after_step for each step made, with the clock at that step (the same additions as a step at
+  // a time); only the last one may use the state (device_run_length).
+  sim_.set_step_count(n0);
+  sim_.set_time_s(t0);
+  for (std::uint64_t j = 1; j <= a.steps; ++j) {
+    sim_.set_time_s(sim_.time_s() + sim_.dt_s());
+    sim_.set_step_count(sim_.step_count() + 1);
+    each(a);
+    defer_stop_ = j < a.steps;
+    after_step();
+  }
+  defer_stop_ = false;
+  return a;
+}
+
 void Runner::sync(bool history) {
   if (!dev_ || !device_current_) return;
   if (synced_step_ == sim_.step_count() && (synced_history_ || !history)) return;

@@ -10,6 +10,7 @@
 #pragma once
 #include <cstdint>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -83,6 +84,10 @@ class Runner {
   /// DeviceEngine::advance call: it ends at the first step whose after_step uses the state
   /// (sample, snapshot, frame, checkpoint, the test hooks), after at most kDeviceRun steps.
   std::uint64_t device_run_length(std::uint64_t limit) const;
+  /// GPU engine: one DeviceEngine::advance of device_run_length(limit) steps, then, for each step
+  /// made, `each` (given the advance's result) and after_step, with the host clock at that step.
+  gpu::DeviceEngine::Advanced advance_on_device(std::uint64_t limit,
+                                                const std::function<void(const gpu::DeviceEngine::Advanced&)>& each);
   /// Whether after_step at step n uses the state (the host must be current then).
   bool host_needs_state_at(std::uint64_t n) const;
   /// One phase's steps on the GPU engine: runs of steps on the device, then after_step for each

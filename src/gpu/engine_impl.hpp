@@ -2000,12 +2000,14 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
     if (lag) throw Error("GPU engine: a sphere's position became non-finite by t = " + std::to_string(host_.time_s()) +
                          " s: the simulation became unstable (is [run].dt_s too large?" + fixed_range_hint() + ")");
   }
-  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1))
-    throw Error("GPU engine: a sphere moved " + std::to_string(moved) +
-                " m since the last neighbour-list build, more than half the skin (" + std::to_string(half_skin) +
-                " m), by a list check at most " + std::to_string(lag) + " steps before t = " +
-                std::to_string(host_.time_s()) +
-                " s: contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
+  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1)) {
+    char buf[256];  // (%g: sub-micrometre skins and moves keep their digits)
+    std::snprintf(buf, sizeof buf,
+                  "GPU engine: a sphere moved %.6g m since the last neighbour-list build, more than half the skin "
+                  "(%.6g m), by a list check at most %u steps before t = %.9g s",
+                  moved, half_skin, lag, host_.time_s());
+    throw Error(std::string(buf) + ": contacts may have been missed; rerun with a larger [run] skin_m or a smaller dt_s");
+  }
 }
 
 inline void Engine::check_lost(const Box& box) {
@@ -2198,6 +2200,11 @@ inline void Engine::download(bool history, bool mid_step) {
       std::memcpy(static_cast<void*>(&h[to[d]]), src + d * sizeof(h[0]), sizeof(h[0]));
   };
   const std::size_t n_b = nb(), n = ns();
+  // A download with the history makes a host list at the positions of now (a checkpoint, the
+  // end of the run; what a resume and the last outputs go on from): a sphere past half the skin
+  // at positions the list gave forces at, which the next check would have stopped the run for,
+  // stops it here. (Mid-step, the removal's upload checks the same.)
+  if (history && !mid_step && n && builds_) check_motion(motion_now(), 0);
   if (history) mirror_history();  // (queued before the copies, on the same stream)
   const std::size_t i_missing = add(mirror_missing_);
   const std::size_t i_pos = add(b_pos_), i_vel = add(b_vel_), i_omega = add(b_omega_), i_l = add(b_l_), i_q = add(b_q_),

@@ -72,7 +72,9 @@ std::uint32_t Simulation::add_body(const BodyInit& in) {
   bodies_.mass_kg.push_back(mass);
   bodies_.inertia_kg_m2.push_back(inertia);
   bodies_.shape.push_back(in.shape);
-  bodies_.id.push_back(b);
+  // A stable id not given before: the bodies added so far are the ones here and the ones removed
+  // (a checkpoint carries both counts, so a resumed run numbers its later insertions the same).
+  bodies_.id.push_back(static_cast<std::uint32_t>(b + removed_bodies_));
   bodies_.first_sphere.push_back(static_cast<std::uint32_t>(spheres_.size()));
   bodies_.sphere_count.push_back(static_cast<std::uint32_t>(t.sphere_count()));
   bodies_.force_n.push_back({});

@@ -228,16 +228,19 @@ TEST(GpuEngine, SphereOutrunningTheListCheckStopsTheRun) {
   }
 }
 
-// The same beads, and an upload between two checks (each replaces the list with one built at the
-// positions of now): a removal (a third bead inside a sink, removal test at step 10) and a plain
-// download and upload after 10 steps, as for an insertion wave. The check after one step set the
-// next 10 steps later, by which time the beads have passed half the skin at positions the list
-// gave forces at. The new list must not hide that: the upload stops the run as the next check
-// would have (before, the run went on).
-TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtAnUpload) {
-  for (const bool sink : {true, false})
+// The same beads, and a new list made between two checks at the positions of now: a removal's
+// upload (a third bead inside a sink, removal test at step 10), a download with the history after
+// 10 steps (a checkpoint, or the end of a run: the host list a resume and the last outputs go on
+// from), and a download without it then an upload (an insertion wave). The check after one step
+// set the next 10 steps later, by which time the beads have passed half the skin at positions the
+// list gave forces at. The new list must not hide that: the run stops there as the next check
+// would have (before, the removal and the upload went on, and a run resumed from the checkpoint
+// or ending there gave its outputs without a word).
+TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtANewList) {
+  for (const char* mode : {"removal", "checkpoint", "upload"})
     for (const char* queued : {"1", "0"}) {
-      SCOPED_TRACE(std::string(sink ? "removal" : "download and upload") + ", BIODEM_GPU_QUEUED_CHECK=" + queued);
+      SCOPED_TRACE(std::string(mode) + ", BIODEM_GPU_QUEUED_CHECK=" + queued);
+      const bool sink = std::string(mode) == "removal";
       SimSetup su = bead_setup(0.5, 0.3);
       sim::Simulation gs = make_simulation(su);
       add_particle(gs, 0, {-0.85e-3, 0, 0});
@@ -256,13 +259,14 @@ TEST(GpuEngine, SphereOutrunningTheListStopsTheRunAlsoAtAnUpload) {
           eng->advance(200);
         } else {
           ASSERT_EQ(eng->advance(10).steps, 10u);
-          eng->download(true);
-          eng->upload();
+          const bool checkpoint = std::string(mode) == "checkpoint";
+          eng->download(checkpoint);
+          if (!checkpoint) eng->upload();
         }
-        ADD_FAILURE() << "an upload must not hide a sphere past half the skin at positions the list gave forces at";
+        ADD_FAILURE() << "a new list must not hide a sphere past half the skin at positions the list gave forces at";
       } catch (const Error& e) {
         const std::string what = e.what();
-        EXPECT_NE(what.find("more than half the skin"), std::string::npos) << what;
+        EXPECT_NE(what.find("more than half the skin (5e-08 m)"), std::string::npos) << what;
         EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
       }
       EXPECT_EQ(eng->removal_uploads(), 0u);

@@ -5,6 +5,8 @@
 // into alpha and made the cell grid grow.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -182,5 +184,37 @@ TEST(LostParticles, DrumRegionOnTheEngine) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("body 2 was lost"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("drum"), std::string::npos) << e.what();
+  }
+}
+
+// A non-finite position is an unstable run, not a lost body: it stops the run naming the body in
+// either mode (before 2026-11-28, lost_particles = "remove" removed it, counted it as lost and
+// went on, while the GPU engine stopped).
+TEST(LostParticles, NonFinitePositionStopsTheRunInEitherMode) {
+  for (const bool remove : {false, true}) {
+    SCOPED_TRACE(remove ? "remove" : "stop");
+    phys::SimSetup su;
+    su.particle = {5e6, 0.3, 2500.0};
+    su.wall = {5e6, 0.3, 0.0};
+    su.templates = {phys::sphere_template(0.5e-3)};
+    su.dt_s = 1e-5;
+    sim::Simulation s = phys::make_simulation(su);
+    sim::LostRegion lr;
+    lr.kind = sim::LostRegion::Kind::Drum;
+    lr.radius_m = 0.01;
+    lr.z0_m = 0.0;
+    lr.z1_m = 0.005;
+    lr.remove = remove;
+    s.set_lost_region(lr);
+    phys::add_particle(s, 0, {0.0, 0.0, 0.0025});
+    phys::add_particle(s, 0, {0.003, 0.0, 0.0025}, {std::numeric_limits<double>::infinity(), 0.0, 0.0});
+    try {
+      s.step();
+      FAIL() << "a non-finite position must stop the run";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("body 1: its position became non-finite"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(s.lost_bodies(), 0u);
+    EXPECT_EQ(s.removed_bodies(), 0u);
   }
 }

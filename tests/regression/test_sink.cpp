@@ -111,3 +111,29 @@ TEST(Sink, CheckpointAfterRemovalResumesBitForBit) {
     EXPECT_EQ(c.sim->bodies().velocity_m_s[k].y, a.sim->bodies().velocity_m_s[k].y);
   }
 }
+
+// Stable ids stay unique when bodies are added after a removal (a later insertion wave after a
+// sink or a lost body removed some): the next body gets the count of bodies ever added, not the
+// current count (before 2026-11-28 the third body below was given id 2, the id of the body kept).
+// A checkpoint carries the removed count, so a resumed run numbers the same.
+TEST(Sink, BodiesAddedAfterARemovalGetIdsNotGivenBefore) {
+  const auto loaded = case_file::load_case(kCase);
+  auto a = driver::build_simulation(loaded.config);
+  sim::Simulation& s = *a.sim;
+  ASSERT_EQ(s.bodies().size(), 3u);
+  ASSERT_EQ(s.remove_bodies({0, 1, 0}), 1u);
+  sim::BodyInit in;
+  in.position_m = {0.0, 0.0, 0.0};
+  s.add_body(in);
+  EXPECT_EQ(s.bodies().id, (std::vector<std::uint32_t>{0, 2, 3}));
+  const std::string path = fresh_dir("sink_ids") + ".bin";
+  checkpoint::save_checkpoint(path, s, {});
+  auto b = driver::build_simulation(loaded.config);
+  checkpoint::load_checkpoint(path, *b.sim);
+  ASSERT_EQ(b.sim->remove_bodies({1, 0, 0}), 1u);
+  b.sim->add_body(in);
+  s.remove_bodies({1, 0, 0});
+  s.add_body(in);
+  EXPECT_EQ(b.sim->bodies().id, (std::vector<std::uint32_t>{2, 3, 4}));
+  EXPECT_EQ(b.sim->bodies().id, s.bodies().id);
+}
