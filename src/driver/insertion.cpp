@@ -77,8 +77,9 @@ void Runner::insert() {
     if (falling) {
       while (insertion_.fall_step < fall_steps) {
         if (dev_) {  // (runs of steps, as the phases: graphs, queued checks, the timed choice)
-          advance_on_device(fall_steps - insertion_.fall_step,
-                            [this](const gpu::DeviceEngine::Advanced&) { ++insertion_.fall_step; });
+          const auto a = advance_on_device(fall_steps - insertion_.fall_step,
+                                           [this](const gpu::DeviceEngine::Advanced&) { ++insertion_.fall_step; });
+          if (a.steps == 0) throw Error("internal: the GPU engine made no step of an insertion fall");
           continue;
         }
         advance();

@@ -88,12 +88,9 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
 }
 
 void Runner::advance(bool next_follows) {
-  if (!dev_) {
-    sim_.step(next_follows && !g_stop_signal);
-    return;
-  }
-  dev_->step();
-  device_current_ = true;
+  // (the GPU engine steps through advance_on_device, in runs of steps)
+  if (dev_) throw Error("internal: Runner::advance on the GPU engine");
+  sim_.step(next_follows && !g_stop_signal);
 }
 
 /// Steps at most in one DeviceEngine::advance call: the progress bar and a signal wait at most

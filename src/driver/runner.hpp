@@ -78,7 +78,7 @@ class Runner {
   double revolution() const;
   void report_progress(const std::string& label);
   [[noreturn]] void stop_on_signal();
-  /// One time step on the selected engine.
+  /// One time step on the CPU engine (the GPU engine: advance_on_device).
   void advance(bool next_follows = false);  // next_follows: see sim::Simulation::step
   /// GPU engine: the number of steps, at most `limit`, that the device may make in one
   /// DeviceEngine::advance call: it ends at the first step whose after_step uses the state

@@ -468,8 +468,9 @@ class Pending {
       copy_.check(cudaStreamSynchronize(engine_stream()));
       const T again = copy_.slot();
       if (std::memcmp(&v, &again, sizeof(T)) != 0)
-        throw Error("GPU engine: the list check read its queued reduction before the device had written it "
-                    "(BIODEM_GPU_VERIFY_QUEUED=1)");
+        // (a DeviceFault: check_list's fallback to waiting checks would hide it)
+        throw DeviceFault("GPU engine: the list check read its queued reduction before the device had written it "
+                          "(BIODEM_GPU_VERIFY_QUEUED=1)");
     }
     return v;
   }

@@ -114,6 +114,9 @@ class Simulation {
   /// Checks every body against the LostRegion: throws biodem::Error naming the first lost body
   /// (id, position, time), or removes the lost ones when the region says so.
   void check_lost_bodies();
+  /// Stops the run with one line naming the first body whose position is not finite (an
+  /// unstable run: not a lost body, nor one inside a sink, in any lost_particles mode).
+  void check_finite_bodies() const;
   /// Starts a prescribed translation of wall k now (it rests before): velocity v from t0 to t1.
   void start_wall_translation(std::size_t k, const Vec3& v, double t0, double t1) {
     set_wall_translation(k, walls_[k].geometry.point_m, v, t0, t1);

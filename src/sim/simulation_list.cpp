@@ -101,8 +101,19 @@ void Simulation::apply_sinks() {
   if (any) remove_bodies(flag);
 }
 
+void Simulation::check_finite_bodies() const {
+  for (std::size_t b = 0; b < bodies_.size(); ++b) {
+    const Vec3 x = bodies_.position_m[b];
+    if (std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z)) continue;
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "body %u: its position became non-finite by t = %.6g s", bodies_.id[b], time_s_);
+    throw Error(std::string(buf) + ": the simulation became unstable (is [run].dt_s too large?)");
+  }
+}
+
 void Simulation::check_lost_bodies() {
   if (lost_region_.kind == LostRegion::Kind::None) return;
+  check_finite_bodies();  // (an unstable run, not a lost body, in either mode)
   const LostRegion& r = lost_region_;
   const std::size_t nb = bodies_.size();
   std::vector<std::uint8_t> flag(nb, 0);
@@ -110,14 +121,7 @@ void Simulation::check_lost_bodies() {
   for (std::size_t b = 0; b < nb; ++b) {
     const Vec3 x = bodies_.position_m[b];
     const double rb = templates_[bodies_.shape[b]].bounding_radius_m;
-    // A non-finite position is an unstable run, not a lost body: it stops the run in either mode
-    // (in "remove" mode it was removed and counted as lost, and the run went on).
-    if (!(std::isfinite(x.x) && std::isfinite(x.y) && std::isfinite(x.z))) {
-      char buf[256];
-      std::snprintf(buf, sizeof buf, "body %u: its position became non-finite by t = %.6g s", bodies_.id[b], time_s_);
-      throw Error(std::string(buf) + ": the simulation became unstable (is [run].dt_s too large?)");
-    }
-    bool lost = false;
+    bool lost = false;  // (non-finite positions: check_finite_bodies above)
     if (r.kind == LostRegion::Kind::Drum) {
       lost = lost || x.x * x.x + x.y * x.y > (r.radius_m + rb) * (r.radius_m + rb);
       if (!r.periodic_z) lost = lost || x.z < r.z0_m - rb || x.z > r.z1_m + rb;

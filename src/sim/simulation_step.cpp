@@ -100,6 +100,7 @@ void Simulation::step(bool next_follows) {
   const bool ahead_next = next_follows;
   if (!step_in_one_region(ahead_next)) {  // drifted, and a rebuild is due (or a body is in a sink)
     const Clock::time_point t1 = profile_on_ ? Clock::now() : Clock::time_point{};
+    check_finite_bodies();  // (before a sink could take an infinite position for one inside it)
     apply_sinks();
     check_lost_bodies();  // throws, or removes the lost bodies, before they enter the cell grid
     if (sort_every_builds_ && list_.builds() % sort_every_builds_ == 0) reorder_spatially();

@@ -141,8 +141,9 @@ TEST(BulkTests, RetainmentRisesWithCohesion) {
 // contact sums are added in another order do. A gate that did not rise keeps every bead
 // (retainment 1); sinks that removed nothing would leave 0 in run.log. The GPU run times its
 // kernel sets as on a GPU (BIODEM_GPU_FORCES=timed; the same bits whatever the set): the choice
-// made stays across the removals' uploads (4 choices in the run: the uploads of the two
-// insertion waves and the phase starts; 93 and 98 when each removal timed the sets again).
+// made stays across the removals' uploads (5 choices in the run since the insertion falls run
+// in runs of steps, 4 before: the uploads of the insertion waves and the phase starts; 93 and 98
+// when each removal timed the sets again).
 TEST(BulkTests, ShearBoxOnTheGpuEngineAsOnTheCpuEngine) {
   const std::vector<std::pair<std::string, std::string>> none;  // the case as it is
   auto cpu = run_bulk("shear_box_tiny.toml", "shear_cpu", none);

@@ -188,11 +188,13 @@ TEST(LostParticles, DrumRegionOnTheEngine) {
 }
 
 // A non-finite position is an unstable run, not a lost body: it stops the run naming the body in
-// either mode (before 2026-11-28, lost_particles = "remove" removed it, counted it as lost and
-// went on, while the GPU engine stopped).
+// either mode, and inside a sink too (before 2026-11-28, lost_particles = "remove" removed it,
+// counted it as lost and went on, and a sink below the scene took a position at -inf for one
+// inside it, while the GPU engine stopped).
 TEST(LostParticles, NonFinitePositionStopsTheRunInEitherMode) {
-  for (const bool remove : {false, true}) {
-    SCOPED_TRACE(remove ? "remove" : "stop");
+  for (const int mode : {0, 1, 2}) {
+    const bool remove = mode == 1, sink = mode == 2;
+    SCOPED_TRACE(remove ? "remove" : (sink ? "a sink below" : "stop"));
     phys::SimSetup su;
     su.particle = {5e6, 0.3, 2500.0};
     su.wall = {5e6, 0.3, 0.0};
@@ -205,9 +207,17 @@ TEST(LostParticles, NonFinitePositionStopsTheRunInEitherMode) {
     lr.z0_m = 0.0;
     lr.z1_m = 0.005;
     lr.remove = remove;
-    s.set_lost_region(lr);
+    if (sink) {
+      sim::SinkSpec k;
+      k.point_m = {0.0, -0.02, 0.0};
+      k.normal = {0, 1, 0};
+      s.add_sink(k);
+    } else {
+      s.set_lost_region(lr);
+    }
     phys::add_particle(s, 0, {0.0, 0.0, 0.0025});
-    phys::add_particle(s, 0, {0.003, 0.0, 0.0025}, {std::numeric_limits<double>::infinity(), 0.0, 0.0});
+    const double inf = std::numeric_limits<double>::infinity();
+    phys::add_particle(s, 0, {0.003, 0.0, 0.0025}, sink ? Vec3{0.0, -inf, 0.0} : Vec3{inf, 0.0, 0.0});
     try {
       s.step();
       FAIL() << "a non-finite position must stop the run";
