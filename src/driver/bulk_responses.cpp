@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "output/output_dir.hpp"
 #include "scenario/bulk_measures.hpp"
 
 namespace biodem::driver {
@@ -100,14 +101,13 @@ void Runner::write_responses() {
   }
   rows.push_back({"at_rest", last_settled_ ? 1.0 : 0.0, "-"});
   const std::string path = opt_.out_dir + "/responses.csv";
-  std::ofstream f(path, std::ios::trunc);
-  f << "response,value,unit\n";
+  std::string text = "response,value,unit\n";
   char buf[64];
   for (const auto& r : rows) {
     std::snprintf(buf, sizeof buf, "%.9g", r.value);
-    f << r.name << "," << buf << "," << r.unit << "\n";
+    text += r.name + "," + buf + "," + r.unit + "\n";
   }
-  if (!f) throw Error(path + ": cannot write");
+  output::write_file_atomic(path, text);  // (whole or not at all; a write error stops the run)
   for (const auto& w : warnings) log_ << w << "\n";
   log_ << "responses (" << path << "):";
   for (const auto& r : rows) log_ << " " << r.name << " = " << r.value << " " << r.unit << ";";

@@ -41,7 +41,10 @@ void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
 void Runner::checkpoint() {
   sync(true);
   series_->flush();
-  if (trace_) trace_->flush();
+  if (trace_) {
+    trace_->flush();
+    check_trace();
+  }
   fsync_path(opt_.out_dir + "/series.csv");
   if (trace_) fsync_path(opt_.out_dir + "/trace.csv");
   checkpoint::RunProgress rp;

@@ -208,8 +208,10 @@ RunSummary Runner::run() {
   if (opt_.resume) {
     if (!fs::exists(opt_.out_dir + "/checkpoint.bin"))
       throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin does not exist (nothing to resume)");
+    lock_ = output::lock_output_dir(opt_.out_dir);
   } else {
     output::prepare_output_dir(opt_.out_dir);
+    lock_ = output::lock_output_dir(opt_.out_dir);
     // A fresh run replaces the outputs of an earlier run in the same folder: an old checkpoint must
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
     fs::remove(opt_.out_dir + "/checkpoint.bin");
@@ -219,12 +221,14 @@ RunSummary Runner::run() {
     fs::remove_all(opt_.out_dir + "/bodies");
     fs::remove_all(opt_.out_dir + "/frames");
     fs::remove_all(opt_.out_dir + "/speed_images");
-    // ... and so would an earlier `biodem analyze` of the folder: its tables and plots describe
-    // the old series.csv.
-    for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
-    for (const char* stem : output::kAnalysisPlots)
-      for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
+    fs::remove(opt_.out_dir + "/snapshots.pvd");  // (until the first snapshot they named the old files)
+    fs::remove(opt_.out_dir + "/bodies.pvd");
   }
+  // An earlier `biodem analyze` of the folder: its tables and plots describe the series.csv of
+  // before (a fresh run's old one, or a resumed run's cut short), so they go.
+  for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
+  for (const char* stem : output::kAnalysisPlots)
+    for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
   fs::create_directories(opt_.out_dir + "/bodies");
@@ -318,9 +322,15 @@ RunSummary Runner::run() {
   if (last_snapshot_step_ != sim_.step_count()) snapshot();
   phase_index_ = phases.size();
   phase_step_ = 0;
-  if (checkpoint_every_) checkpoint();  // the final state: a later --resume finds nothing left to do
+  // The final state: a later --resume finds nothing left to do. Also without periodic
+  // checkpoints when one exists (a signal's, or the one this run resumed from): left behind, a
+  // second --resume would go back to it and cut the finished outputs short.
+  if (checkpoint_every_ || fs::exists(opt_.out_dir + "/checkpoint.bin")) checkpoint();
   series_->flush();
-  if (trace_) trace_->flush();
+  if (trace_) {
+    trace_->flush();
+    check_trace();
+  }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
   RunSummary r;

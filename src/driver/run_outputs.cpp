@@ -80,7 +80,13 @@ void Runner::sample() {
                     x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z);
       *trace_ << buf;
     }
+    check_trace();
   }
+}
+
+void Runner::check_trace() const {
+  if (trace_ && !*trace_)
+    throw Error(opt_.out_dir + "/trace.csv: write failed (disk full, or a file size limit?)");
 }
 
 void Runner::snapshot() {

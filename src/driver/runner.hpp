@@ -26,6 +26,7 @@
 #include "driver/build_simulation.hpp"
 #include "driver/run_driver.hpp"
 #include "gpu/device_engine.hpp"
+#include "output/output_dir.hpp"
 #include "output/progress.hpp"
 #include "output/series_csv.hpp"
 #include "output/vtk_writer.hpp"
@@ -101,6 +102,11 @@ class Runner {
   /// Neighbour-list builds so far: the device list's on the GPU engine, else the CPU list's.
   std::uint64_t list_builds() const;
 
+  /// Throws if trace.csv's stream failed (a full disk, a file size limit): outputs are not
+  /// given up silently.
+  void check_trace() const;
+
+  output::DirLock lock_;  // the output folder, held for the run (output::lock_output_dir)
   const config::CaseConfig& cfg_;
   std::vector<std::string> warnings_;
   RunOptions opt_;

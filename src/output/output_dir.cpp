@@ -1,6 +1,7 @@
 #include "output/output_dir.hpp"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -66,6 +67,34 @@ void write_file_atomic(const std::string& path, const std::string& content) {
     ::unlink(tmp.c_str());
     throw Error(path + ": cannot rename " + tmp + " over it: " + std::strerror(err));
   }
+}
+
+DirLock& DirLock::operator=(DirLock&& o) noexcept {
+  if (this != &o) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = o.fd_;
+    o.fd_ = -1;
+  }
+  return *this;
+}
+
+DirLock::~DirLock() {
+  if (fd_ >= 0) ::close(fd_);  // (closing releases the flock)
+}
+
+DirLock lock_output_dir(const std::string& dir) {
+  const std::string path = (fs::path(dir) / ".biodem.lock").string();
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error("--out " + dir + ": cannot open " + path + ": " + std::strerror(errno));
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd);
+    if (err == EWOULDBLOCK)
+      throw Error("--out " + dir + ": another biodem run is writing to this folder (" + path +
+                  " is locked); wait for it to end, or choose another --out");
+    throw Error("--out " + dir + ": cannot lock " + path + ": " + std::strerror(err));
+  }
+  return DirLock(fd);
 }
 
 }  // namespace biodem::output

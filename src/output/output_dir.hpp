@@ -13,4 +13,22 @@ void prepare_output_dir(const std::string& dir, const std::string& label = "--ou
 /// Throws biodem::Error naming the path.
 void write_file_atomic(const std::string& path, const std::string& content);
 
+/// An exclusive lock on `dir` (flock on dir/.biodem.lock) held while the returned object lives:
+/// two runs writing into one output folder would corrupt each other's files. Throws
+/// biodem::Error naming the folder if another process holds it.
+class DirLock {
+ public:
+  DirLock() = default;
+  explicit DirLock(int fd) : fd_(fd) {}
+  DirLock(const DirLock&) = delete;
+  DirLock& operator=(const DirLock&) = delete;
+  DirLock(DirLock&& o) noexcept : fd_(o.fd_) { o.fd_ = -1; }
+  DirLock& operator=(DirLock&& o) noexcept;
+  ~DirLock();
+
+ private:
+  int fd_ = -1;
+};
+DirLock lock_output_dir(const std::string& dir);
+
 }  // namespace biodem::output

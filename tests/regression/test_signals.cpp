@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
+#include <string>
 
 #include "test_util.hpp"
 
@@ -68,4 +70,86 @@ TEST(Signals, ResumeRefusesAnOutputShorterThanTheCheckpointRecorded) {
   EXPECT_EQ(rr.status, 2) << rr.output;
   EXPECT_NE(rr.output.find("fewer than"), std::string::npos) << rr.output;
   EXPECT_EQ(slurp(d + "/series.csv").find('\0'), std::string::npos);
+}
+
+namespace {
+/// checkpoint_tiny without periodic checkpoints, written next to `dir`.
+std::string case_without_checkpoints(const std::string& dir) {
+  std::string text = slurp(kCase), out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("checkpoint_every_s", 0) != 0) out += line + "\n";
+  const std::string path = dir + "_case.toml";
+  std::ofstream(path) << out;
+  return path;
+}
+}  // namespace
+
+// Without periodic checkpoints, a SIGTERM's checkpoint used to stay after the resumed run
+// finished: a second --resume went back to it and cut the finished series.csv short. The final
+// checkpoint is now written whenever one exists: the second --resume finds nothing left to do and
+// every output stays that of an uninterrupted run.
+TEST(Signals, SecondResumeOfAFinishedRunChangesNothing) {
+  const std::string a = fresh_dir("sig_nock_full"), b = fresh_dir("sig_nock");
+  const std::string c = case_without_checkpoints(b);
+  ASSERT_EQ(run_command(biodem_exe() + " run " + c + " --out " + a + " --threads 1").status, 0);
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=3000 " + biodem_exe() + " run " + c + " --out " + b + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  for (int k = 0; k < 2; ++k) {
+    auto rr = run_command(biodem_exe() + " run " + c + " --out " + b + " --threads 1 --resume");
+    ASSERT_EQ(rr.status, 0) << "resume " << k << ": " << rr.output;
+    EXPECT_EQ(slurp(a + "/series.csv"), slurp(b + "/series.csv")) << "after resume " << k;
+    EXPECT_EQ(slurp(a + "/trace.csv"), slurp(b + "/trace.csv")) << "after resume " << k;
+  }
+}
+
+// Two runs writing into one folder corrupted each other's files (a resume started while the
+// first run still ran left NUL bytes and duplicated rows, both exiting 0): the folder is locked
+// for a run (flock on DIR/.biodem.lock), and a second run, fresh or resumed, is refused with one
+// line before it touches anything.
+TEST(Signals, RunIntoAFolderInUseIsRefused) {
+  const std::string d = fresh_dir("sig_locked");
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=3000 " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  const std::string series = slurp(d + "/series.csv");
+  // Hold the lock as a running biodem would (flock from a shell, while each command runs).
+  for (const char* how : {" --resume", ""}) {
+    auto rr = run_command("flock -n " + d + "/.biodem.lock " + biodem_exe() + " run " + kCase + " --out " + d +
+                          " --threads 1" + how);
+    EXPECT_EQ(rr.status, 2) << how << ": " << rr.output;
+    EXPECT_NE(rr.output.find("another biodem run is writing to this folder"), std::string::npos) << rr.output;
+    EXPECT_EQ(slurp(d + "/series.csv"), series) << how;
+    EXPECT_TRUE(fs::exists(d + "/checkpoint.bin")) << how;
+  }
+  EXPECT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume").status, 0);
+}
+
+// A trace.csv that cannot be written (here a file size limit; a full disk alike) stops the run
+// with one line: before, the run went on and said "done" with the trace cut off mid-row.
+TEST(Signals, TraceThatCannotBeWrittenStopsTheRun) {
+  const std::string d = fresh_dir("sig_fsize");
+  auto r = run_command("bash -c \"trap '' XFSZ; ulimit -f 300; " + biodem_exe() + " run " + kCase + " --out " + d +
+                       " --threads 1\"");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("trace.csv: write failed"), std::string::npos) << r.output;
+}
+
+// A resumed run removes the tables and plots of an earlier `biodem analyze` (they describe the
+// series cut short at the checkpoint), as a fresh run does; a fresh run also removes the
+// snapshot collections of the run before, which named its deleted files until the first
+// snapshot.
+TEST(Signals, ResumeAndFreshRunDropStaleAnalysisAndCollections) {
+  const std::string d = fresh_dir("sig_stale");
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=9000 " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  ASSERT_EQ(run_command(biodem_exe() + " analyze " + d).status, 0);
+  ASSERT_TRUE(fs::exists(d + "/descriptors.csv"));
+  ASSERT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume").status, 0);
+  EXPECT_FALSE(fs::exists(d + "/descriptors.csv"));
+  EXPECT_FALSE(fs::exists(d + "/events.csv"));
+  std::ofstream(d + "/snapshots.pvd") << "stale collection";
+  std::ofstream(d + "/bodies.pvd") << "stale collection";
+  r = run_command("BIODEM_TEST_ABORT_AT_STEP=5 " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"})
+    EXPECT_EQ(slurp(d + pvd).find("stale collection"), std::string::npos) << pvd;
 }
