@@ -43,6 +43,12 @@ void CaseParser::parse_bulk_test() {
     b.rest_hold_s = r.real_or("rest_hold_s", b.rest_hold_s, kPositive);
     b.max_fill_s = r.real_or("max_fill_s", b.max_fill_s, kPositive);
     b.max_rest_s = r.real_or("max_rest_s", b.max_rest_s, kPositive);
+    // (the rest criterion holds for rest_hold_s within each cap: a longer hold is never met)
+    for (const char* cap : {"max_fill_s", "max_rest_s"})
+      if (b.rest_hold_s > (std::string(cap) == "max_fill_s" ? b.max_fill_s : b.max_rest_s))
+        r.fail(r.has("rest_hold_s") ? "rest_hold_s" : cap,
+               std::string(r.has("rest_hold_s") ? "exceeds " : "is shorter than rest_hold_s (its default): ") + cap +
+                   ": the rest criterion could never be met");
   };
   auto& ins = *cfg_.insertion;
   auto wall = [&](config::WallKind k, std::size_t mat, config::Vec3d p, config::Vec3d n) {

@@ -11,6 +11,7 @@
 
 #include "case_file/case_parser_detail.hpp"
 #include "case_file/derived_quantities.hpp"
+#include "config/steps.hpp"
 
 namespace biodem::case_file::detail {
 
@@ -73,6 +74,13 @@ void CaseParser::parse_phases() {
     config::Phase p;
     p.name = r.string("name");
     if (p.name.empty()) r.fail("name", "must not be empty");
+    // A length that rounds to no step (round(seconds / dt) = 0) is a phase the run cannot make.
+    auto no_step_refused = [&](const char* key, double seconds) {
+      if (config::steps_for(seconds, cfg_.run.dt_s) == 0)
+        r.fail(key, (std::string(key) == "revolutions" ? num(seconds) + " s, " : std::string()) +
+                        "less than half the time step ([run].dt_s = " + num(cfg_.run.dt_s) +
+                        " s): the phase would make no step");
+    };
     const char* lengths[] = {"steps", "duration_s", "revolutions", "until_mean_kinetic_energy_j"};
     std::vector<std::string_view> given;
     for (auto k : lengths)
@@ -92,11 +100,13 @@ void CaseParser::parse_phases() {
     } else if (r.has("duration_s")) {
       p.length = config::PhaseLength::Duration;
       p.duration_s = r.real("duration_s", kPositive);
+      no_step_refused("duration_s", p.duration_s);
     } else if (r.has("revolutions")) {
       p.length = config::PhaseLength::Revolutions;
       p.revolutions = r.real("revolutions", kPositive);
       if (!cfg_.drum) r.fail("revolutions", "needs a [drum]");
       if (cfg_.drum->rpm == 0.0) r.fail("revolutions", "needs a turning drum ([drum].rpm = 0)");
+      no_step_refused("revolutions", p.revolutions * 60.0 / std::abs(cfg_.drum->rpm));
     } else {
       // Settle criterion: stored as a Duration phase capped at max_duration_s, so that the
       // phase length is always well defined; the criterion may end it earlier.
@@ -106,6 +116,14 @@ void CaseParser::parse_phases() {
       p.min_duration_s = r.real_or("min_duration_s", 0.0, kNonNegative);
       p.settle_hold_s = r.real_or("settle_hold_s", p.settle_hold_s, kPositive);
       if (p.min_duration_s > *p.max_duration_s) r.fail("min_duration_s", "must not exceed max_duration_s");
+      no_step_refused("max_duration_s", *p.max_duration_s);
+      if (p.settle_hold_s > *p.max_duration_s) {
+        if (r.has("settle_hold_s"))
+          r.fail("settle_hold_s", "exceeds max_duration_s = " + num(*p.max_duration_s) +
+                                      " s: the criterion could never be met");
+        r.fail("max_duration_s", "is shorter than settle_hold_s = " + num(p.settle_hold_s) +
+                                     " s (its default): the criterion could never be met");
+      }
       if (auto e = r.opt_string("settle_energy")) {
         if (*e == "translational") p.translational_criterion = true;
         else if (*e != "total") r.fail("settle_energy", "must be \"total\" (default) or \"translational\"");

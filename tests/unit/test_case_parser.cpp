@@ -322,6 +322,21 @@ TEST(CaseParser, PhaseRules) {
   EXPECT_ERROR_NAMES(edit(kScene, "duration_s = 0.01", ""), "[[phase]] #1 (fall) .steps");
   EXPECT_ERROR_NAMES(edit(kScene, "[[phase]]\nname = \"fall\"\nduration_s = 0.01", ""), "[[phase]]");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "steps = 0"), ".steps");
+  // Lengths the run cannot honour: a duration or a turn that rounds to no step, a settle phase
+  // capped below half a step, a hold longer than the cap (the criterion could never be met).
+  EXPECT_ERROR_NAMES(edit(kScene, "duration_s = 0.01", "duration_s = 1e-9"), "[[phase]] #1 (fall) .duration_s",
+                     "less than half the time step", "no step");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "revolutions = 3.0", "revolutions = 1e-9"), ".revolutions", "no step");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 1e-9"),
+                     ".max_duration_s", "no step");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000",
+                          "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.5\nsettle_hold_s = 0.6"),
+                     ".settle_hold_s", "could never be met");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.005"),
+                     ".max_duration_s", "settle_hold_s", "(its default)");
+  EXPECT_NO_THROW(case_file::parse_case(
+      edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.5\nsettle_hold_s = 0.5"),
+      "case.toml"));
 }
 
 // ------------------------------------------------------------------ keys and types
