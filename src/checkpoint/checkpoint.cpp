@@ -295,14 +295,19 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   if (ec) throw Error(path + ": cannot rename checkpoint: " + ec.message());
 }
 
-RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
+namespace {
+
+std::vector<char> read_checkpoint_file(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw Error(path + ": not a regular file, so not a checkpoint");
   std::ifstream f(path, std::ios::binary);
   if (!f) throw Error(path + ": no checkpoint to resume from");
-  const std::vector<char> all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  return load_checkpoint_bytes(all, path, sim);
+  return std::vector<char>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
-RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::string& path, sim::Simulation& sim) {
+/// The header's checks (magic, version, size, checksum); returns the version.
+std::uint32_t checked_version(const std::vector<char>& all, const std::string& path) {
   const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
   if (all.size() < head + sizeof(std::uint64_t) || std::memcmp(all.data(), kMagic, sizeof kMagic) != 0)
     throw Error(path + ": not a biodem checkpoint");
@@ -316,7 +321,28 @@ RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::strin
   if (all.size() != head + size + sizeof sum) throw Error(path + ": truncated checkpoint");
   std::memcpy(&sum, all.data() + head + size, sizeof sum);
   if (fnv1a(all.data() + head, size) != sum) throw Error(path + ": checkpoint checksum mismatch (corrupt file)");
+  return version;
+}
 
+}  // namespace
+
+RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim) {
+  return load_checkpoint_bytes(read_checkpoint_file(path), path, sim);
+}
+
+std::uint64_t checkpoint_case_hash(const std::string& path) {
+  const std::vector<char> all = read_checkpoint_file(path);
+  (void)checked_version(all, path);
+  std::uint64_t hash = 0;  // (the payload's first field)
+  std::memcpy(&hash, all.data() + sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t), sizeof hash);
+  return hash;
+}
+
+RunProgress load_checkpoint_bytes(const std::vector<char>& all, const std::string& path, sim::Simulation& sim) {
+  const std::uint32_t version = checked_version(all, path);
+  const std::size_t head = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+  std::uint64_t size;
+  std::memcpy(&size, all.data() + sizeof kMagic + sizeof version, sizeof size);
   In in(all.data() + head, size, path);
   RunProgress rp;
   rp.version = version;

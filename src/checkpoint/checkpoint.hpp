@@ -62,6 +62,10 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim, const 
 /// Restores into a Simulation built from the same case (same walls, templates, materials).
 /// Throws biodem::Error naming the file when it is missing, truncated, corrupt or of another version.
 RunProgress load_checkpoint(const std::string& path, sim::Simulation& sim);
+/// The case-file hash a checkpoint was written for (RunProgress::case_hash), after the checks of
+/// its header and checksum, without loading its state: a checkpoint of another case is named as
+/// such before its state could fail to fit this case's.
+std::uint64_t checkpoint_case_hash(const std::string& path);
 /// Same for the bytes of a checkpoint file already in memory (`path` is used in messages).
 RunProgress load_checkpoint_bytes(const std::vector<char>& bytes, const std::string& path, sim::Simulation& sim);
 

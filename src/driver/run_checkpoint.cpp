@@ -29,6 +29,10 @@ void fsync_path(const std::string& path) {
 /// Truncates an appended output back to what the checkpoint counted. A file shorter than that
 /// lost rows the checkpoint relies on (extending it would pad with NUL bytes): an error.
 void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    throw Error("--resume: " + path + " is missing (the checkpoint counts " + std::to_string(bytes) +
+                " bytes of it); start the run again");
   const auto size = fs::file_size(path);
   if (size < bytes)
     throw Error("--resume: " + path + " has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(bytes) +
@@ -75,9 +79,9 @@ std::string Runner::engine_name() const {
 
 void Runner::resume() {
   const std::string path = opt_.out_dir + "/checkpoint.bin";
-  resumed_ = checkpoint::load_checkpoint(path, sim_);
-  if (resumed_.case_hash != case_hash_)
+  if (checkpoint::checkpoint_case_hash(path) != case_hash_)
     throw Error("--resume: " + path + " was written for a different case file than " + cfg_.source_path);
+  resumed_ = checkpoint::load_checkpoint(path, sim_);
   adopt_checkpoint_engine(path);
   if (dev_) {
     dev_->upload();  // the checkpoint's forces and contact history: the run continues as it was
@@ -90,6 +94,7 @@ void Runner::resume() {
   frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
   truncate_to_checkpoint(opt_.out_dir + "/series.csv", resumed_.series_bytes);
   if (cfg_.output.trace) truncate_to_checkpoint(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
+  remove_analysis_outputs();
   resumed_run_ = true;
   if (resumed_.version >= 5) {
     last_sample_step_ = resumed_.last_sample_step;

@@ -134,6 +134,14 @@ gpu::DeviceEngine::Advanced Runner::advance_on_device(
   return a;
 }
 
+void Runner::remove_analysis_outputs() {
+  // An earlier `biodem analyze` of the folder: its tables and plots describe the series.csv of
+  // before (a fresh run's old one, or a resumed run's cut short at the checkpoint).
+  for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
+  for (const char* stem : output::kAnalysisPlots)
+    for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
+}
+
 void Runner::sync(bool history) {
   if (!dev_ || !device_current_) return;
   if (synced_step_ == sim_.step_count() && (synced_history_ || !history)) return;
@@ -223,12 +231,8 @@ RunSummary Runner::run() {
     fs::remove_all(opt_.out_dir + "/speed_images");
     fs::remove(opt_.out_dir + "/snapshots.pvd");  // (until the first snapshot they named the old files)
     fs::remove(opt_.out_dir + "/bodies.pvd");
+    remove_analysis_outputs();  // (a resumed run: once its checkpoint is accepted, resume())
   }
-  // An earlier `biodem analyze` of the folder: its tables and plots describe the series.csv of
-  // before (a fresh run's old one, or a resumed run's cut short), so they go.
-  for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
-  for (const char* stem : output::kAnalysisPlots)
-    for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
   fs::create_directories(opt_.out_dir + "/snapshots");
   fs::create_directories(opt_.out_dir + "/bodies");

@@ -105,6 +105,8 @@ class Runner {
   /// Throws if trace.csv's stream failed (a full disk, a file size limit): outputs are not
   /// given up silently.
   void check_trace() const;
+  /// Removes the tables and plots of an earlier `biodem analyze` of the output folder.
+  void remove_analysis_outputs();
 
   output::DirLock lock_;  // the output folder, held for the run (output::lock_output_dir)
   const config::CaseConfig& cfg_;

@@ -153,3 +153,31 @@ TEST(Signals, ResumeAndFreshRunDropStaleAnalysisAndCollections) {
   for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"})
     EXPECT_EQ(slurp(d + pvd).find("stale collection"), std::string::npos) << pvd;
 }
+
+// --resume refuses with one line: a checkpoint of another case (named as such before its state
+// is loaded: before, a state that did not fit this case gave "walls or shapes differ" or
+// "corrupt checkpoint"), an appended output that is missing (before, an "internal error" from the
+// file system), and a checkpoint.bin that is a folder (before, an "internal error" from reading it).
+TEST(Signals, ResumeRefusesAnotherCaseAMissingOutputAndAFolder) {
+  const std::string d = fresh_dir("sig_refuse");
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=9000 " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  ASSERT_EQ(run_command(biodem_exe() + " analyze " + d).status, 0);
+  const std::string other = source_dir() + "/tests/cases/sink_tiny.toml";
+  auto a = run_command(biodem_exe() + " run " + other + " --out " + d + " --threads 1 --resume");
+  EXPECT_EQ(a.status, 2) << a.output;
+  EXPECT_NE(a.output.find("was written for a different case file"), std::string::npos) << a.output;
+  EXPECT_TRUE(fs::exists(d + "/descriptors.csv")) << "a refused resume changes nothing";
+  fs::rename(d + "/trace.csv", d + "/trace.kept");
+  auto b = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume");
+  EXPECT_EQ(b.status, 2) << b.output;
+  EXPECT_NE(b.output.find("trace.csv is missing"), std::string::npos) << b.output;
+  EXPECT_EQ(b.output.find("internal error"), std::string::npos) << b.output;
+  fs::rename(d + "/trace.kept", d + "/trace.csv");
+  const std::string e = fresh_dir("sig_refuse_dir");
+  fs::create_directories(e + "/checkpoint.bin");
+  auto c = run_command(biodem_exe() + " run " + kCase + " --out " + e + " --threads 1 --resume");
+  EXPECT_EQ(c.status, 2) << c.output;
+  EXPECT_NE(c.output.find("not a regular file"), std::string::npos) << c.output;
+  EXPECT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume").status, 0);
+}
