@@ -161,19 +161,31 @@ TEST(LostParticles, DomainBoxStopsTheRunOnBothEngines) {
 
 // The drum region: a body outside the mantle by more than its radius is lost; one touching the
 // mantle is not.
-TEST(LostParticles, DrumRegionOnTheEngine) {
+namespace {
+/// A scene of beads of 0.5 mm radius (no walls) and the lost region of a drum of radius 10 mm
+/// between z = 0 and 5 mm.
+sim::Simulation bead_scene() {
   phys::SimSetup su;
   su.particle = {5e6, 0.3, 2500.0};
   su.wall = {5e6, 0.3, 0.0};
   su.templates = {phys::sphere_template(0.5e-3)};
   su.dt_s = 1e-5;
-  sim::Simulation s = phys::make_simulation(su);
+  return phys::make_simulation(su);
+}
+sim::LostRegion drum_region(bool remove) {
   sim::LostRegion lr;
   lr.kind = sim::LostRegion::Kind::Drum;
   lr.radius_m = 0.01;
   lr.z0_m = 0.0;
   lr.z1_m = 0.005;
-  s.set_lost_region(lr);
+  lr.remove = remove;
+  return lr;
+}
+}  // namespace
+
+TEST(LostParticles, DrumRegionOnTheEngine) {
+  sim::Simulation s = bead_scene();
+  s.set_lost_region(drum_region(false));
   phys::add_particle(s, 0, {0.0, -0.0104, 0.0025});  // 0.4 mm past the mantle: within its radius
   phys::add_particle(s, 0, {0.0, 0.0, 0.0025});
   s.check_lost_bodies();
@@ -195,25 +207,14 @@ TEST(LostParticles, NonFinitePositionStopsTheRunInEitherMode) {
   for (const int mode : {0, 1, 2}) {
     const bool remove = mode == 1, sink = mode == 2;
     SCOPED_TRACE(remove ? "remove" : (sink ? "a sink below" : "stop"));
-    phys::SimSetup su;
-    su.particle = {5e6, 0.3, 2500.0};
-    su.wall = {5e6, 0.3, 0.0};
-    su.templates = {phys::sphere_template(0.5e-3)};
-    su.dt_s = 1e-5;
-    sim::Simulation s = phys::make_simulation(su);
-    sim::LostRegion lr;
-    lr.kind = sim::LostRegion::Kind::Drum;
-    lr.radius_m = 0.01;
-    lr.z0_m = 0.0;
-    lr.z1_m = 0.005;
-    lr.remove = remove;
+    sim::Simulation s = bead_scene();
     if (sink) {
       sim::SinkSpec k;
       k.point_m = {0.0, -0.02, 0.0};
       k.normal = {0, 1, 0};
       s.add_sink(k);
     } else {
-      s.set_lost_region(lr);
+      s.set_lost_region(drum_region(remove));
     }
     phys::add_particle(s, 0, {0.0, 0.0, 0.0025});
     const double inf = std::numeric_limits<double>::infinity();
