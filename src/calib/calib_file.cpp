@@ -163,7 +163,7 @@ class CalibParser {
       only(*list[i], w, {"name", "case", "base", "min_drop_deg", "skip_s", "skip_rev", "seeds"});
       CalibTest t;
       t.name = str(*list[i], w, "name");
-      if (t.name.empty() || t.name.find_first_of("/ \\") != std::string::npos)
+      if (t.name.empty() || t.name == "." || t.name == ".." || t.name.find_first_of("/ \\") != std::string::npos)
         fail(w + ".name = \"" + t.name + "\": a non-empty name without slashes or spaces");
       if (!names.insert(t.name).second) fail(w + ".name = \"" + t.name + "\": given twice");
       const fs::path dir = fs::path(path_).parent_path();

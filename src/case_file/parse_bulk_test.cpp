@@ -11,6 +11,7 @@
 
 
 #include "case_file/case_parser_detail.hpp"
+#include "config/steps.hpp"
 #include "case_file/derived_quantities.hpp"
 
 namespace biodem::case_file::detail {
@@ -38,17 +39,25 @@ void CaseParser::parse_bulk_test() {
     fail("[run].gravity_m_s2: the bulk tests stand on a horizontal plate with y up; gravity must be [0, -g, 0]");
   config::BulkTest b;
   const std::vector<std::string_view> rest_keys = {"rest_fraction", "rest_hold_s", "max_fill_s", "max_rest_s"};
-  auto read_rest = [&](const Reader& r) {
+  // with_rest: the test has a rest phase after its fill (heap, shear box; not bulk density).
+  auto read_rest = [&](const Reader& r, bool with_rest) {
     b.rest_fraction = r.real_or("rest_fraction", b.rest_fraction, kPositive);
     b.rest_hold_s = r.real_or("rest_hold_s", b.rest_hold_s, kPositive);
     b.max_fill_s = r.real_or("max_fill_s", b.max_fill_s, kPositive);
     b.max_rest_s = r.real_or("max_rest_s", b.max_rest_s, kPositive);
-    // (the rest criterion holds for rest_hold_s within each cap: a longer hold is never met)
-    for (const char* cap : {"max_fill_s", "max_rest_s"})
-      if (b.rest_hold_s > (std::string(cap) == "max_fill_s" ? b.max_fill_s : b.max_rest_s))
-        r.fail(r.has("rest_hold_s") ? "rest_hold_s" : cap,
-               std::string(r.has("rest_hold_s") ? "exceeds " : "is shorter than rest_hold_s (its default): ") + cap +
-                   ": the rest criterion could never be met");
+    // The rest criterion holds for rest_hold_s within each phase's cap, counted in steps as the
+    // run counts them: a longer hold is never met.
+    const double dt = cfg_.run.dt_s;
+    const std::uint64_t hold = std::max<std::uint64_t>(1, config::steps_for(b.rest_hold_s, dt));
+    for (const char* cap : {"max_fill_s", "max_rest_s"}) {
+      const bool fill = std::string(cap) == "max_fill_s";
+      if (!fill && !with_rest) continue;
+      const double cap_s = fill ? b.max_fill_s : b.max_rest_s;
+      if (hold <= config::steps_for(cap_s, dt)) continue;
+      if (r.has("rest_hold_s"))
+        r.fail("rest_hold_s", "exceeds " + std::string(cap) + " = " + num(cap_s) + " s: the rest criterion could never be met");
+      r.fail(cap, "is shorter than rest_hold_s = " + num(b.rest_hold_s) + " s (its default): the rest criterion could never be met");
+    }
   };
   auto& ins = *cfg_.insertion;
   auto wall = [&](config::WallKind k, std::size_t mat, config::Vec3d p, config::Vec3d n) {
@@ -118,7 +127,7 @@ void CaseParser::parse_bulk_test() {
         r.fail("sectors", "must be a whole number from 4 to 8 (vertical half-planes of the surface fit, SPEC 7)");
       b.sectors = static_cast<std::size_t>(k);
     }
-    read_rest(r);
+    read_rest(r, true);
     config::Wall base = wall(config::WallKind::Disc, b.base_material, {0, 0, 0}, {0, 1, 0});
     base.radius_m = 0.5 * b.base_diameter_m;
     cfg_.walls.push_back(base);
@@ -147,7 +156,7 @@ void CaseParser::parse_bulk_test() {
     b.container_material = material_ref(r, "container_material");
     b.pour_height_factor = r.real_or("pour_height_factor", 1.5, kPositive);
     if (!(b.pour_height_factor > 1.0)) r.fail("pour_height_factor", "must exceed 1 (the container must overflow)");
-    read_rest(r);
+    read_rest(r, false);
     config::Wall bottom = wall(config::WallKind::Disc, b.container_material, {0, 0, 0}, {0, 1, 0});
     bottom.radius_m = 0.5 * b.container_diameter_m;
     cfg_.walls.push_back(bottom);
@@ -172,7 +181,7 @@ void CaseParser::parse_bulk_test() {
     b.height_m = r.real_or("height_m", 0.08, kPositive);
     b.gate_lift_speed_m_s = r.real_or("gate_lift_speed_m_s", 0.1, kPositive);
     b.material = material_ref(r, "material");
-    read_rest(r);
+    read_rest(r, true);
     const double L = b.length_m, W = b.width_m, H = b.height_m;
     cfg_.walls.push_back(rect(b.material, {0.5 * L, 0, 0}, {0, 1, 0}, {1, 0, 0}, L, W));            // bottom
     cfg_.walls.push_back(rect(b.material, {0, 0.5 * H, 0}, {1, 0, 0}, {0, 1, 0}, H, W));            // back

@@ -117,7 +117,9 @@ void CaseParser::parse_phases() {
       p.settle_hold_s = r.real_or("settle_hold_s", p.settle_hold_s, kPositive);
       if (p.min_duration_s > *p.max_duration_s) r.fail("min_duration_s", "must not exceed max_duration_s");
       no_step_refused("max_duration_s", *p.max_duration_s);
-      if (p.settle_hold_s > *p.max_duration_s) {
+      // (in steps, as the run counts them: hold max(1, round(hold / dt)) within round(cap / dt))
+      if (std::max<std::uint64_t>(1, config::steps_for(p.settle_hold_s, cfg_.run.dt_s)) >
+          config::steps_for(*p.max_duration_s, cfg_.run.dt_s)) {
         if (r.has("settle_hold_s"))
           r.fail("settle_hold_s", "exceeds max_duration_s = " + num(*p.max_duration_s) +
                                       " s: the criterion could never be met");

@@ -26,9 +26,9 @@ void fsync_path(const std::string& path) {
   ::close(fd);
 }
 
-/// Truncates an appended output back to what the checkpoint counted. A file shorter than that
-/// lost rows the checkpoint relies on (extending it would pad with NUL bytes): an error.
-void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
+/// An appended output the checkpoint counted `bytes` of: it must exist and hold at least that
+/// (a shorter file lost rows the checkpoint relies on; extending it would pad with NUL bytes).
+void check_for_checkpoint(const std::string& path, std::uint64_t bytes) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec))
     throw Error("--resume: " + path + " is missing (the checkpoint counts " + std::to_string(bytes) +
@@ -37,7 +37,13 @@ void truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
   if (size < bytes)
     throw Error("--resume: " + path + " has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(bytes) +
                 " the checkpoint recorded (rows were lost); start the run again");
+}
+
+/// Cuts the output back to what the checkpoint counted; true if that shortened it.
+bool truncate_to_checkpoint(const std::string& path, std::uint64_t bytes) {
+  if (fs::file_size(path) == bytes) return false;
   fs::resize_file(path, bytes);
+  return true;
 }
 
 }  // namespace
@@ -92,9 +98,15 @@ void Runner::resume() {
   rotation_time_s_ = resumed_.rotation_time_s;
   snapshot_index_ = resumed_.snapshot_index;
   frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
-  truncate_to_checkpoint(opt_.out_dir + "/series.csv", resumed_.series_bytes);
-  if (cfg_.output.trace) truncate_to_checkpoint(opt_.out_dir + "/trace.csv", resumed_.trace_bytes);
-  remove_analysis_outputs();
+  // Both appended outputs checked before either is cut: a refused resume changes nothing.
+  const std::string series = opt_.out_dir + "/series.csv", trace = opt_.out_dir + "/trace.csv";
+  check_for_checkpoint(series, resumed_.series_bytes);
+  if (cfg_.output.trace) check_for_checkpoint(trace, resumed_.trace_bytes);
+  bool cut = truncate_to_checkpoint(series, resumed_.series_bytes);
+  if (cfg_.output.trace) cut = truncate_to_checkpoint(trace, resumed_.trace_bytes) || cut;
+  // An earlier analysis describes a series that was cut here, or that the run will extend; the
+  // resume of a finished run (its final checkpoint: nothing cut, no phase left) keeps it.
+  if (cut || resumed_.phase_index < cfg_.phases.size()) remove_analysis_outputs();
   resumed_run_ = true;
   if (resumed_.version >= 5) {
     last_sample_step_ = resumed_.last_sample_step;

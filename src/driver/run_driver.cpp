@@ -222,7 +222,8 @@ RunSummary Runner::run() {
     lock_ = output::lock_output_dir(opt_.out_dir);
     // A fresh run replaces the outputs of an earlier run in the same folder: an old checkpoint must
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
-    fs::remove(opt_.out_dir + "/checkpoint.bin");
+    if (std::error_code ec; fs::remove(opt_.out_dir + "/checkpoint.bin", ec), ec)
+      throw Error("--out " + opt_.out_dir + ": cannot remove the old checkpoint.bin (" + ec.message() + ")");
     fs::remove(opt_.out_dir + "/trace.csv");
     fs::remove(opt_.out_dir + "/responses.csv");
     fs::remove_all(opt_.out_dir + "/snapshots");

@@ -84,15 +84,17 @@ DirLock::~DirLock() {
 
 DirLock lock_output_dir(const std::string& dir) {
   const std::string path = (fs::path(dir) / ".biodem.lock").string();
-  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) throw Error("--out " + dir + ": cannot open " + path + ": " + std::strerror(errno));
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
-    ::close(fd);
-    if (err == EWOULDBLOCK)
+    if (err == EWOULDBLOCK) {
+      ::close(fd);
       throw Error("--out " + dir + ": another biodem run is writing to this folder (" + path +
                   " is locked); wait for it to end, or choose another --out");
-    throw Error("--out " + dir + ": cannot lock " + path + ": " + std::strerror(err));
+    }
+    // A file system without locks (some network and cluster mounts): the run goes on unguarded,
+    // as before there was a lock.
   }
   return DirLock(fd);
 }

@@ -100,7 +100,12 @@ TEST(Signals, SecondResumeOfAFinishedRunChangesNothing) {
     ASSERT_EQ(rr.status, 0) << "resume " << k << ": " << rr.output;
     EXPECT_EQ(slurp(a + "/series.csv"), slurp(b + "/series.csv")) << "after resume " << k;
     EXPECT_EQ(slurp(a + "/trace.csv"), slurp(b + "/trace.csv")) << "after resume " << k;
+    // (the analysis of the finished series stays: the second resume neither cuts nor extends it)
+    if (k == 0) {
+      ASSERT_EQ(run_command(biodem_exe() + " analyze " + b).status, 0);
+    }
   }
+  EXPECT_TRUE(fs::exists(b + "/descriptors.csv"));
 }
 
 // Two runs writing into one folder corrupted each other's files (a resume started while the
@@ -169,8 +174,10 @@ TEST(Signals, ResumeRefusesAnotherCaseAMissingOutputAndAFolder) {
   EXPECT_NE(a.output.find("was written for a different case file"), std::string::npos) << a.output;
   EXPECT_TRUE(fs::exists(d + "/descriptors.csv")) << "a refused resume changes nothing";
   fs::rename(d + "/trace.csv", d + "/trace.kept");
+  const std::string series = slurp(d + "/series.csv");
   auto b = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume");
   EXPECT_EQ(b.status, 2) << b.output;
+  EXPECT_EQ(slurp(d + "/series.csv"), series) << "a refused resume cuts nothing";
   EXPECT_NE(b.output.find("trace.csv is missing"), std::string::npos) << b.output;
   EXPECT_EQ(b.output.find("internal error"), std::string::npos) << b.output;
   fs::rename(d + "/trace.kept", d + "/trace.csv");

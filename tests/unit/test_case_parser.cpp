@@ -333,7 +333,7 @@ TEST(CaseParser, PhaseRules) {
                           "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.5\nsettle_hold_s = 0.6"),
                      ".settle_hold_s", "could never be met");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.005"),
-                     ".max_duration_s", "settle_hold_s", "(its default)");
+                     ".max_duration_s", "settle_hold_s = 0.01 s", "(its default)");
   EXPECT_NO_THROW(case_file::parse_case(
       edit(kSpecExample, "steps = 10000", "until_mean_kinetic_energy_j = 1e-10\nmax_duration_s = 0.5\nsettle_hold_s = 0.5"),
       "case.toml"));
