@@ -77,6 +77,7 @@ void Runner::checkpoint() {
   // frame index is implied by the step count
   checkpoint::save_checkpoint(opt_.out_dir + "/checkpoint.bin", sim_, rp);
   fsync_path(opt_.out_dir);
+  check_log();  // after the checkpoint: a run stopped here resumes from it
 }
 
 std::string Runner::engine_name() const {

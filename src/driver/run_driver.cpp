@@ -285,6 +285,7 @@ RunSummary Runner::run() {
     log_.open(opt_.out_dir + "/run.log", std::ios::app);
     log_ << "\nresumed from checkpoint.bin at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")\n";
     log_ << resume_note_;
+    check_log();
     series_ = std::make_unique<output::SeriesWriter>(opt_.out_dir + "/series.csv", true);
     if (cfg_.output.trace) trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::app);
     pvd_ = std::make_unique<output::PvdCollection>(opt_.out_dir + "/snapshots.pvd");
@@ -302,6 +303,7 @@ RunSummary Runner::run() {
   } else {
     log_.open(opt_.out_dir + "/run.log", std::ios::trunc);
     write_log_header();
+    check_log();
     series_ = std::make_unique<output::SeriesWriter>(opt_.out_dir + "/series.csv", false);
     if (cfg_.output.trace) {
       trace_ = std::make_unique<std::ofstream>(opt_.out_dir + "/trace.csv", std::ios::trunc);
@@ -370,7 +372,7 @@ RunSummary Runner::run() {
   if (dev_) log_ << "GPU list build: " << dev_->list_build_kernel() << ", " << dev_->grouped_list_builds() << " of "
                  << dev_->list_builds() << " builds grouped\n";
   if (dev_ && !dev_->profile_report().empty()) log_ << dev_->profile_report() << "\n";
-  log_.flush();
+  check_log();
   std::ostringstream msg;
   msg << "done: " << r.steps << " steps (" << r.simulated_s << " s simulated) in " << output::format_duration(wall)
       << "; outputs in " << opt_.out_dir << " (series.csv, snapshots.pvd" << (speed_images_ ? ", speed_images/" : "")

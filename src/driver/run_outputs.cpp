@@ -89,6 +89,11 @@ void Runner::check_trace() const {
     throw Error(opt_.out_dir + "/trace.csv: write failed (disk full, or a file size limit?)");
 }
 
+void Runner::check_log() {
+  log_.flush();
+  if (!log_) throw Error(opt_.out_dir + "/run.log: cannot be written (a folder of that name, disk full, or a file size limit?)");
+}
+
 void Runner::snapshot() {
   last_snapshot_step_ = sim_.step_count();
   sync(false);

@@ -105,6 +105,7 @@ class Runner {
   /// Throws if trace.csv's stream failed (a full disk, a file size limit): outputs are not
   /// given up silently.
   void check_trace() const;
+  void check_log();  // flushes run.log and stops the run if it could not be written
   /// Removes the tables and plots of an earlier `biodem analyze` of the output folder.
   void remove_analysis_outputs();
 

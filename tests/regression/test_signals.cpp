@@ -139,6 +139,17 @@ TEST(Signals, TraceThatCannotBeWrittenStopsTheRun) {
   EXPECT_NE(r.output.find("trace.csv: write failed"), std::string::npos) << r.output;
 }
 
+// run.log that cannot be written (here a folder of that name) stops the run with one line before
+// any step, instead of a run whose log stays empty.
+TEST(Signals, RunLogThatCannotBeWrittenStopsTheRun) {
+  const std::string d = fresh_dir("sig_runlog");
+  fs::create_directories(d + "/run.log");
+  auto r = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("run.log: cannot be written"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(d + "/series.csv")) << "stopped before any output";
+}
+
 // A resumed run removes the tables and plots of an earlier `biodem analyze` (they describe the
 // series cut short at the checkpoint), as a fresh run does; a fresh run also removes the
 // snapshot collections of the run before, which named its deleted files until the first
