@@ -11,6 +11,7 @@
 
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/build_info.hpp"
 
 int main(int argc, char** argv) {
 #if BIODEM_FORWARDS
@@ -18,7 +19,7 @@ int main(int argc, char** argv) {
 #endif
   CLI::App app{"biodem: DEM of cohesive, elongated biomass powders in a rotating drum"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "biodem 0.1.0");
+  app.set_version_flag("--version", biodem::output::build_description());
 
   std::vector<std::pair<CLI::App*, biodem::cli::Action>> actions;
   auto add = [&](auto reg) {

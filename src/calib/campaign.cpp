@@ -17,6 +17,7 @@
 #include "calib/objectives.hpp"
 #include "calib/scheduler.hpp"
 #include "core/error.hpp"
+#include "output/build_info.hpp"
 
 namespace biodem::calib {
 namespace {
@@ -111,6 +112,7 @@ class Campaign {
     else
       log_ << ", jobs " << o_.jobs;
     log_ << "; " << cache.size() << " evaluations cached\n";
+    log_ << "build: " << output::build_description() << "\n";
     log_.flush();
     {
       std::ofstream f(cache_csv, std::ios::app);

@@ -21,6 +21,7 @@
 #include "core/parallel.hpp"
 #include "driver/runner.hpp"
 #include "output/analysis_files.hpp"
+#include "output/build_info.hpp"
 #include "output/case_report.hpp"
 #include "output/output_dir.hpp"
 #if BIODEM_HAVE_OPENCV
@@ -165,7 +166,8 @@ double Runner::revolution() const {
 
 
 void Runner::write_log_header() {
-  log_ << "biodem run\ncase: " << cfg_.source_path << "\nthreads: " << omp_get_max_threads() << "\n";
+  log_ << "biodem run\ncase: " << cfg_.source_path << "\nbuild: " << output::build_description()
+       << "\nthreads: " << omp_get_max_threads() << "\n";
   log_ << "engine: "
        << (dev_ ? "GPU engine on " + dev_->device_name()
                 : "CPU engine, pair pass " + sim::pair_kernel_name(sim_.pair_kernel()))
@@ -283,7 +285,8 @@ RunSummary Runner::run() {
   if (opt_.resume) {
     resume();
     log_.open(opt_.out_dir + "/run.log", std::ios::app);
-    log_ << "\nresumed from checkpoint.bin at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")\n";
+    log_ << "\nresumed from checkpoint.bin at t = " << sim_.time_s() << " s (step " << sim_.step_count() << ")\nbuild: "
+         << output::build_description() << ", threads: " << omp_get_max_threads() << "\n";
     log_ << resume_note_;
     check_log();
     series_ = std::make_unique<output::SeriesWriter>(opt_.out_dir + "/series.csv", true);

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -161,7 +162,13 @@ TEST(AnalysisCli, CommandLineErrorsAreOneLineNamingTheOption) {
   }
   EXPECT_EQ(test::run_biodem("--help").status, 0);
   EXPECT_EQ(test::run_biodem("run --help").status, 0);
-  EXPECT_EQ(test::run_biodem("--version").status, 0);
+  // --version names the build: the source's commit (or that it was no git checkout) and the
+  // settings that change results, as run.log and campaign.log do.
+  const auto v = test::run_biodem("--version");
+  EXPECT_EQ(v.status, 0);
+  EXPECT_TRUE(std::regex_match(v.output, std::regex("biodem [0-9]+\\.[0-9]+\\.[0-9]+ \\(source ([0-9a-f]{12}(-modified|-unknown-state)?|not "
+                                                    "a git checkout); (GNU|Clang)[^\n]*, (Release|Debug|RelWithDebInfo|MinSizeRel)[^\n]*\\)\n")))
+      << v.output;
 }
 
 // Four samples: glass-like (small frequent drops), two biomass-like with equal drops (a tie),
