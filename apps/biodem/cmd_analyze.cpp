@@ -197,6 +197,11 @@ int run_analyze(const AnalyzeOptions& o) {
   for (const auto& w : r.warnings) std::cerr << "warning: " << w << "\n";
 
   const fs::path dir = series_path.parent_path().empty() ? fs::path(".") : series_path.parent_path();
+  // The plots and sweep of an earlier analysis of this folder go first: this one may write fewer
+  // (no zoom, no r^2, a distribution without values, --no-plots) and must not leave old ones
+  // beside its tables.
+  output::remove_analysis_plots(dir.string());
+  if (!o.sweep) fs::remove(dir / "threshold_sweep.csv");
   output::write_events_csv((dir / "events.csv").string(), r);
   output::write_descriptors_csv((dir / "descriptors.csv").string(), r);
   if (!o.no_plots) write_plots(dir, file.series, r);

@@ -33,7 +33,26 @@ double rpm_from_revolution(const Series& s) {
         "cannot determine the drum speed: the revolution column never increases; give --rpm");
   std::nth_element(rates.begin(), rates.begin() + static_cast<std::ptrdiff_t>(rates.size() / 2),
                    rates.end());
-  return 60.0 * rates[rates.size() / 2];
+  const double median = rates[rates.size() / 2];
+  // The median of the sample-to-sample slopes carries the rounding of the written columns
+  // (revolution has 12 significant digits: about 1e-8 of a slope), enough to split the equal f
+  // of two samples that differ only in length. The slope over the longest stretch of samples
+  // turning at that speed (each step within 1e-6 of it) averages the rounding away.
+  std::size_t best_i = 0, best_j = 0;
+  for (std::size_t i = 0; i + 1 < s.size();) {
+    std::size_t j = i;
+    while (j + 1 < s.size()) {
+      const double dt = s.time_s[j + 1] - s.time_s[j];
+      const double dr = s.revolution[j + 1] - s.revolution[j];
+      if (!(dt > 0.0) || !(std::abs(dr / dt - median) <= 1e-6 * median)) break;
+      ++j;
+    }
+    if (j - i > best_j - best_i) best_i = i, best_j = j;
+    i = j > i ? j : i + 1;
+  }
+  if (best_j > best_i)
+    return 60.0 * (s.revolution[best_j] - s.revolution[best_i]) / (s.time_s[best_j] - s.time_s[best_i]);
+  return 60.0 * median;
 }
 
 FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions& opt) {

@@ -37,8 +37,10 @@ struct FlowabilityResult {
 };
 
 /// Drum speed from the slope of the revolution column (revolution = rpm t / 60 while the drum
-/// turns): 60 x the median of (delta revolution / delta t) over the steps where the revolution
-/// increases. Throws biodem::Error when the column is missing or never increases.
+/// turns): the median m of (delta revolution / delta t) over the steps where the revolution
+/// increases, then 60 x the slope over the longest stretch of steps each within 1e-6 of m (free of
+/// the written columns' rounding). Throws biodem::Error when the column is missing or never
+/// increases.
 double rpm_from_revolution(const Series& s);
 
 /// Throws biodem::Error on too few samples or an undeterminable speed.

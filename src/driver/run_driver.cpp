@@ -138,9 +138,7 @@ gpu::DeviceEngine::Advanced Runner::advance_on_device(
 void Runner::remove_analysis_outputs() {
   // An earlier `biodem analyze` of the folder: its tables and plots describe the series.csv of
   // before (a fresh run's old one, or a resumed run's cut short at the checkpoint).
-  for (const char* f : output::kAnalysisTables) fs::remove(opt_.out_dir + "/" + f);
-  for (const char* stem : output::kAnalysisPlots)
-    for (const char* ext : {".png", ".svg"}) fs::remove(opt_.out_dir + "/" + stem + ext);
+  output::remove_analysis_outputs(opt_.out_dir);
 }
 
 void Runner::sync(bool history) {

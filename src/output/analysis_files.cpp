@@ -1,5 +1,6 @@
 #include "output/analysis_files.hpp"
 
+#include <filesystem>
 #include <sstream>
 
 #include "analysis/distributions.hpp"
@@ -7,6 +8,16 @@
 #include "output/series_csv.hpp"
 
 namespace biodem::output {
+
+void remove_analysis_plots(const std::string& dir) {
+  for (const char* stem : kAnalysisPlots)
+    for (const char* ext : {".png", ".svg"}) std::filesystem::remove(std::filesystem::path(dir) / (std::string(stem) + ext));
+}
+
+void remove_analysis_outputs(const std::string& dir) {
+  for (const char* f : kAnalysisTables) std::filesystem::remove(std::filesystem::path(dir) / f);
+  remove_analysis_plots(dir);
+}
 
 void write_events_csv(const std::string& path, const analysis::FlowabilityResult& r) {
   std::ostringstream out;

@@ -138,9 +138,18 @@ SeriesFile read_series_csv(const fs::path& path) {
       continue;
     }
     if (!s.time_s.empty() && val[0] <= s.time_s.back()) {
-      // A resumed run re-wrote samples: keep the newest rows from this time on.
+      // A resumed run re-wrote samples: keep the newest rows from this time on. It writes again a
+      // sample time it had written; a time that goes back to one no earlier row has is a file out
+      // of time order, which would silently lose most of its rows here.
       const auto keep = static_cast<std::size_t>(
           std::lower_bound(s.time_s.begin(), s.time_s.end(), val[0]) - s.time_s.begin());
+      const double tol = 1e-9 * std::max(1.0, std::abs(val[0]));
+      const bool rewrite = (keep < s.time_s.size() && std::abs(s.time_s[keep] - val[0]) <= tol) ||
+                           (keep > 0 && std::abs(s.time_s[keep - 1] - val[0]) <= tol);
+      if (!rewrite)
+        throw Error("series file '" + name + "' line " + std::to_string(line_no) + ": time_s " +
+                    csv_number(val[0], 12) + " goes back from " + csv_number(s.time_s.back(), 12) +
+                    " to a time no earlier row has: the rows are not in time order (sort them by time_s)");
       superseded += s.time_s.size() - keep;
       restart_lines.push_back(line_no);
       for (std::size_t k = 0; k < kColumns.size(); ++k)

@@ -6,11 +6,13 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "analysis/events.hpp"
 #include "analysis/flowability.hpp"
 #include "core/error.hpp"
+#include "output/series_csv.hpp"
 #include "test_analysis_helpers.hpp"
 
 using namespace biodem;
@@ -246,6 +248,34 @@ TEST(AnalysisFlowability, SpeedSettlePhaseAndSkip) {
   res = analyze_flowability(v, o);
   EXPECT_EQ(res.first_sample, 0u);
   EXPECT_EQ(res.distributions[3].count, v.size());
+}
+
+// The drum speed from a written series (time and revolution with 12 significant digits, as
+// series.csv has them): the same drum at 0.37 rpm and 50 Hz after settle phases of different
+// lengths gives the same speed to 1e-10 (before, the median of the sample-to-sample slopes
+// carried the columns' rounding, about 1e-8, and `compare` ranked equal f medians apart); a stop
+// of the drum inside the series does not move it.
+TEST(AnalysisFlowability, SpeedFromWrittenColumnsIsFreeOfTheirRounding) {
+  auto written = [](double v) { return std::stod(biodem::output::csv_number(v, 12)); };
+  std::vector<double> speeds;
+  for (int settle : {0, 1013, 7391, 15000}) {
+    Series s;
+    const int n = settle + 300 * (1 + settle % 7);
+    for (int i = 0; i < n; ++i) {
+      const double t = i / 50.0;
+      s.time_s.push_back(written(t));
+      s.revolution.push_back(written(i < settle ? 0.0 : 0.37 * ((i - settle) / 50.0) / 60.0));
+      s.alpha_deg.push_back(40.0);
+    }
+    const double rpm = rpm_from_revolution(s);
+    EXPECT_NEAR(rpm, 0.37, 1e-10 * 0.37) << "settle " << settle;
+    speeds.push_back(rpm);
+    // A stop of 200 samples in the middle (revolution constant), then the same speed again.
+    Series p = s;
+    for (std::size_t i = p.size() / 2; i < p.size(); ++i) p.revolution[i] = written(s.revolution[i] - 200 * 0.37 / 50.0 / 60.0);
+    for (std::size_t i = p.size() / 2; i < p.size() / 2 + 200 && i < p.size(); ++i) p.revolution[i] = p.revolution[p.size() / 2 - 1];
+    EXPECT_NEAR(rpm_from_revolution(p), 0.37, 1e-10 * 0.37) << "settle " << settle << " with a stop";
+  }
 }
 
 TEST(AnalysisFlowability, BadInputsGiveClearErrors) {

@@ -129,6 +129,26 @@ TEST(AnalysisSeriesCsv, NaNRowsAreSkippedAndRestartsReplaceRows) {
   EXPECT_DOUBLE_EQ(f.series.surface_r2[3], 0.99);
 }
 
+// Rows out of time order are an error naming the line (before, each step back was taken for a
+// resumed run and the shuffled file below kept 2 of its 6 rows, with only a warning); a step back
+// to a time an earlier row has stays a resumed run's re-written samples.
+TEST(AnalysisSeriesCsv, RowsOutOfTimeOrderAreAnError) {
+  test::TempDir dir("series_order");
+  write_file(dir / "shuffled.csv",
+             "time_s,revolution,alpha_deg\n0.04,0.0002,40.2\n0.1,0.0005,40.5\n0.02,0.0001,40.1\n"
+             "0.08,0.0004,40.4\n0,0,40\n0.06,0.0003,40.3\n");
+  const std::string e = read_error(dir / "shuffled.csv");
+  EXPECT_TRUE(contains(e, "line 4: time_s 0.02 goes back from 0.1 to a time no earlier row has")) << e;
+  write_file(dir / "reversed.csv", "time_s,revolution,alpha_deg\n0.1,0.0005,40.5\n0.08,0.0004,40.4\n0.06,0.0003,40.3\n");
+  EXPECT_TRUE(contains(read_error(dir / "reversed.csv"), "line 3: time_s 0.08 goes back"));
+  write_file(dir / "resumed.csv",
+             "time_s,revolution,alpha_deg\n0,0,40\n0.02,0.0001,40.1\n0.04,0.0002,40.2\n0.02,0.0001,41.1\n"
+             "0.04,0.0002,41.2\n0.06,0.0003,41.3\n");
+  const auto f = output::read_series_csv(dir / "resumed.csv");
+  EXPECT_EQ(f.series.time_s, (std::vector<double>{0.0, 0.02, 0.04, 0.06}));
+  EXPECT_DOUBLE_EQ(f.series.alpha_deg[1], 41.1);
+}
+
 TEST(AnalysisSeriesCsv, WriterRefusesAForeignFileAndUnwritablePath) {
   test::TempDir dir("series_writer_bad");
   write_file(dir / "other.csv", "a,b\n1,2\n");
