@@ -47,6 +47,8 @@ const std::map<std::string, std::string> kUnit = {
     {"bulk_density_kg_m3", "kg/m3"}, {"solid_fraction", "-"},      {"core_solid_fraction", "-"},
     {"retainment_ratio", "-"},
 };
+// The largest NSGA-II population (evaluations per generation); more is a mistake of the file.
+constexpr std::uint64_t kMostPopulation = 100000;
 // The most seeds of one [[test]] (a mean over more runs than this is a campaign of its own).
 constexpr std::size_t kMostSeeds = 64;
 const std::vector<std::string> kPairKeys = {"restitution", "sliding_friction", "rolling_friction",
@@ -103,7 +105,10 @@ class CalibParser {
   double real(const toml::table& t, const std::string& where, const char* key) const {
     const auto* n = t.get(key);
     if (!n) fail(where + "." + key + ": required key is missing");
-    if (auto f = n->as_floating_point()) return f->get();
+    if (auto f = n->as_floating_point()) {
+      if (!std::isfinite(f->get())) fail(where + "." + key + ": must be a finite number (nan and inf are not)");
+      return f->get();
+    }
     if (auto i = n->as_integer()) return static_cast<double>(i->get());
     fail(where + "." + key + ": must be a number");
   }
@@ -151,7 +156,12 @@ class CalibParser {
     if (c_.population < 8 || c_.population % 4 != 0)
       fail("[campaign].population = " + std::to_string(c_.population) +
            ": NSGA-II needs a multiple of 4, at least 8");
+    if (c_.population > kMostPopulation)
+      fail("[campaign].population = " + std::to_string(c_.population) + ": at most " + std::to_string(kMostPopulation));
     if (c_.generations < 1) fail("[campaign].generations = 0: at least 1");
+    // NSGA-II (pagmo) takes a 32-bit seed: a larger one would give the search of seed mod 2^32.
+    if (c_.seed > 0xffffffffu)
+      fail("[campaign].seed = " + std::to_string(c_.seed) + ": at most 4294967295 (the search's seed is 32 bits)");
   }
 
   void tests(const toml::table& root) {
@@ -241,6 +251,9 @@ class CalibParser {
       t.value = real(*list[i], w, "value");
       t.unit = str(*list[i], w, "unit");
       if (t.value == 0.0) fail(w + ".value = 0: a relative error needs a non-zero target");
+      for (const auto& earlier : c_.targets)
+        if (earlier.response == t.response)
+          fail(w + ".response = \"" + t.response + "\": has a target already (one [[target]] per response)");
       bool produced = false, by_drum = false;
       for (const auto& test : c_.tests)
         if (produces(test, t.response)) {
@@ -269,6 +282,13 @@ class CalibParser {
       if (p.name.empty() || p.name.find_first_of(", ") != std::string::npos)
         fail(w + ".name: a non-empty name without commas or spaces");
       if (!names.insert(p.name).second) fail(w + ".name = \"" + p.name + "\": given twice");
+      // The evaluation files have a column per parameter beside these: a parameter of the same
+      // name would be two columns of one name, and --evaluate would read the other one.
+      for (const char* fixed : {"generation", "index", "o1", "o2", "wall_s"})
+        if (p.name == fixed) fail(w + ".name = \"" + p.name + "\": is a column of the evaluation files; choose another name");
+      for (const auto& t : c_.targets)
+        if (p.name == t.response)
+          fail(w + ".name = \"" + p.name + "\": is a response's column of the evaluation files; choose another name");
       p.lower = real(*list[i], w, "lower");
       p.upper = real(*list[i], w, "upper");
       if (!(p.upper > p.lower)) fail(w + ".upper: must exceed lower");
@@ -299,6 +319,17 @@ class CalibParser {
           fail(w + ".lower = " + std::to_string(p.lower) + ": " + parts[3] + " cannot be negative");
         if (parts[3] == "restitution" && (lo <= 0.0 || hi > 1.0))
           fail(w + ".lower/upper: restitution must stay in (0, 1]");
+        // (pair.A.B.k and pair.B.A.k are one key)
+        const auto same = [&](const CalibKey& other) {
+          const auto o = split(other.path, '.');
+          return o[3] == parts[3] && ((o[1] == parts[1] && o[2] == parts[2]) || (o[1] == parts[2] && o[2] == parts[1]));
+        };
+        for (const auto& q : c_.parameters)
+          for (const auto& other : q.keys)
+            if (same(other))
+              fail(w + ".keys: \"" + key.path + "\" is set by parameter \"" + q.name + "\" already (one parameter per key)");
+        for (const auto& other : p.keys)
+          if (same(other)) fail(w + ".keys: \"" + key.path + "\" given twice");
         p.keys.push_back(key);
       }
       c_.parameters.push_back(p);
@@ -327,9 +358,11 @@ class CalibParser {
             double v = e.as_floating_point() ? e.as_floating_point()->get()
                        : e.as_integer()      ? static_cast<double>(e.as_integer()->get())
                                              : -1.0;
-            if (!(v >= 0.0)) fail(std::string("[objectives].") + wkey + ": non-negative numbers");
+            if (!(v >= 0.0) || !std::isfinite(v)) fail(std::string("[objectives].") + wkey + ": non-negative finite numbers");
             o.weights[k] = v;
           }
+          if (std::none_of(o.weights.begin(), o.weights.end(), [](double v) { return v > 0.0; }))
+            fail(std::string("[objectives].") + wkey + ": at least one weight must be positive");
         }
         if (o.responses.empty()) fail(std::string("[objectives].") + key + ": at least one response");
       };

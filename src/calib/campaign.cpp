@@ -18,6 +18,7 @@
 #include "calib/scheduler.hpp"
 #include "core/error.hpp"
 #include "output/build_info.hpp"
+#include "output/output_dir.hpp"
 
 namespace biodem::calib {
 namespace {
@@ -60,6 +61,12 @@ std::string campaign_id(const CalibConfig& c, bool evaluate) {
   return std::string(evaluate ? "evaluate " : "search ") + hex;
 }
 
+// A campaign file that could not be written (a full disk, a file size limit) stops the campaign
+// with one line, instead of a "done" over files that miss rows.
+void check_written(std::ostream& f, const std::string& path) {
+  if (!f) throw Error(path + ": write failed (disk full, or a file size limit?)");
+}
+
 class Campaign {
  public:
   Campaign(const CalibConfig& c, const CampaignOptions& o, const MpiJob* mpi) : c_(c), o_(o), mpi_(mpi) {
@@ -74,6 +81,11 @@ class Campaign {
     // --evaluate: the vectors are read (and checked) before anything is written or run.
     std::vector<std::vector<double>> given;
     if (!o_.evaluate_csv.empty()) given = read_parameter_rows(o_.evaluate_csv, c_);
+    // One campaign per folder: a second one (or a --resume while the test runs of a killed one
+    // still run: they hold the lock too) would run the same test folders at once, and score the
+    // runs refused by their own folders' locks as failures, for good.
+    fs::create_directories(out);
+    const output::DirLock lock = output::lock_output_dir(out, /*inherited_by_children=*/true);
     const CampaignSignals signals;  // SIGINT / SIGTERM stop the campaign, not just its test runs
     const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
     const auto names = response_names(c_);
@@ -97,10 +109,7 @@ class Campaign {
       throw Error("--out " + out + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
     }
     fs::create_directories(out + "/runs");
-    if (!o_.resume || !fs::exists(id_file)) {
-      std::ofstream f(id_file, std::ios::trunc);
-      f << id << "\n";
-    }
+    if (!o_.resume || !fs::exists(id_file)) output::write_file_atomic(id_file, id + "\n");
     log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
     log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; ";
     if (given.empty())
@@ -119,8 +128,11 @@ class Campaign {
       if (!o_.resume) f << evaluations_header(c_) << "\n";
     }
     cache_out_.open(cache_csv, std::ios::app);
+    check_written(cache_out_, cache_csv);
     evals_.open(eval_csv, std::ios::trunc);
     evals_ << evaluations_header(c_) << "\n";
+    check_written(evals_, eval_csv);
+    check_written(log_, out + "/campaign.log");
     t0_ = std::chrono::steady_clock::now();
 
     CampaignSettings s;
@@ -138,6 +150,7 @@ class Campaign {
         [&](const std::vector<Evaluation>& b) {
           for (const auto& e : b) evals_ << evaluation_row(e) << "\n";
           evals_.flush();
+          check_written(evals_, out + "/evaluations.csv");
           ++done;
           const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
           double best1 = INFINITY, best2 = INFINITY;
@@ -152,10 +165,10 @@ class Campaign {
           std::cerr << "calibrate: batch " << done << " of " << batches << " done\n";
         },
         cache);
-    std::ofstream p(out + "/pareto.csv", std::ios::trunc);
+    std::ostringstream p;
     p << evaluations_header(c_) << "\n";
     for (const auto& e : res.pareto) p << evaluation_row(e) << "\n";
-    if (!p) throw Error(out + "/pareto.csv: cannot write");
+    output::write_file_atomic(out + "/pareto.csv", p.str());
     write_campaign_plots(c_, res, out);
     log_ << "finished: " << res.evaluations.size() << " evaluations, " << res.pareto.size()
          << " in the Pareto set (pareto.csv)\n";
@@ -166,6 +179,8 @@ class Campaign {
       log_ << note.str() << "\n";
       std::cerr << note.str() << "\n";
     }
+    log_.flush();
+    check_written(log_, out + "/campaign.log");
     return {res.evaluations.size(), res.pareto.size()};
   }
 
@@ -217,6 +232,18 @@ class Campaign {
       log_.flush();
       throw CampaignStopped(sig, what);
     }
+    // A failure that says nothing of the parameters (a kill, an internal error, outputs that
+    // could not be written) stops the campaign before this batch is scored: cached as 1e9 it
+    // would stay so on every --resume. The runs that finished are re-used by --resume.
+    for (std::size_t q = 0; q < jobs.size(); ++q)
+      if (const std::string why = unscorable_failure(runs[q], jobs[q].dir); !why.empty()) {
+        const std::string what = "calibrate: the test run in " + jobs[q].dir + " " + why + "; generation " +
+                                 std::to_string(batch.front().generation) +
+                                 " is not scored; remove the cause and continue with --resume";
+        log_ << what << "\n";
+        log_.flush();
+        throw Error(what);
+      }
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());
@@ -235,7 +262,9 @@ class Campaign {
         vs[seed_of[q]] = v;
       }
       wall[j.evaluation] += r.wall_s;
-      if (r.rc != 0) errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (see " + j.dir + "/stdout.txt)";
+      if (r.rc != 0)
+        errors[j.evaluation] += " " + c_.tests[j.test].name + " failed (status " + std::to_string(r.rc) + "; see " + j.dir +
+                                "/stdout.txt)";
       // What the responses may not mean: the run's warnings, and a heap that was not found (its
       // angle is scored as 0).
       const std::string who = "evaluation g" + std::to_string(batch[j.evaluation].generation) + " e" +
@@ -314,6 +343,7 @@ class Campaign {
       cache_out_ << evaluation_row(ev) << "\n";
     }
     cache_out_.flush();
+    check_written(cache_out_, o_.out_dir + "/cache.csv");
   }
 
   // --evaluate: one batch of the given vectors (generation 0, index = row); those in the cache of
@@ -339,6 +369,7 @@ class Campaign {
     }
     for (const auto& e : all) evals_ << evaluation_row(e) << "\n";
     evals_.flush();
+    check_written(evals_, o_.out_dir + "/evaluations.csv");
     double best1 = INFINITY, best2 = INFINITY;
     for (const auto& e : all) {
       best1 = std::min(best1, e.o1);

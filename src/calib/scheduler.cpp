@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -17,12 +19,23 @@ namespace biodem::calib {
 std::vector<TestRun> run_on_threads(const std::vector<TestJob>& jobs, int threads, const TestRunner& run) {
   std::vector<TestRun> out(jobs.size());
   std::atomic<std::size_t> next{0};
+  // An exception on a worker thread would end the program (std::terminate): the first one is
+  // kept, the other workers stop taking jobs, and it is thrown again here once all have joined.
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
   auto worker = [&] {
-    for (std::size_t q; (q = next.fetch_add(1)) < jobs.size();) out[q] = run(jobs[q]);
+    try {
+      for (std::size_t q; (q = next.fetch_add(1)) < jobs.size();) out[q] = run(jobs[q]);
+    } catch (...) {
+      const std::lock_guard<std::mutex> hold(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next.store(jobs.size());
+    }
   };
   std::vector<std::thread> pool;
   for (int k = 0; k < std::max(1, threads); ++k) pool.emplace_back(worker);
   for (auto& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
   return out;
 }
 

@@ -15,6 +15,8 @@
 #include <fstream>
 #include <iterator>
 
+#include "output/output_dir.hpp"
+
 extern char** environ;
 
 namespace biodem::calib {
@@ -144,8 +146,10 @@ std::string current_executable() {
   return self.string();
 }
 
-TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text,
-                         const std::optional<DrumAnalysis>& drum) {
+namespace {
+
+TestRun run_test_process_or_throw(const std::string& biodem_exe, const std::string& dir, const std::string& case_text,
+                                  const std::optional<DrumAnalysis>& drum) {
   TestRun r;
   if (const int sig = g_signal.load()) {  // the campaign is stopping: start nothing
     r.rc = 128 + sig;
@@ -170,7 +174,7 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
       // them must not leave their "finished:" and responses beside the new case text.
       fs::remove(dir + "/out/run.log");
       fs::remove(dir + "/out/responses.csv");
-      { std::ofstream(dir + "/case.toml") << case_text; }
+      output::write_file_atomic(dir + "/case.toml", case_text);  // (a cut-off text could still parse)
       r.rc = run_child(args, dir + "/stdout.txt", false);
     }
   }
@@ -206,4 +210,35 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   return r;
 }
 
+
+}  // namespace
+
+TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, const std::string& case_text,
+                         const std::optional<DrumAnalysis>& drum) {
+  // (on a worker thread or an MPI rank: nothing may escape; a folder that cannot be made, a
+  // responses.csv that cannot be read, is a failure that stops the campaign unscored)
+  try {
+    return run_test_process_or_throw(biodem_exe, dir, case_text, drum);
+  } catch (const std::exception& e) {
+    TestRun r;
+    r.rc = -1;
+    r.warnings.push_back(std::string("the test run could not be made: ") + e.what());
+    return r;
+  }
+}
+
+std::string unscorable_failure(const TestRun& r, const std::string& dir) {
+  if (r.rc == 0 || stopping_signal(r.rc)) return "";
+  if (r.rc == -1)
+    return "could not be started, or its end not read" + (r.warnings.empty() ? std::string() : " (" + r.warnings.back() + ")");
+  if (r.rc > 128) return "was ended by signal " + std::to_string(r.rc - 128) + " (killed from outside, or for memory)";
+  if (r.rc != 2) return "ended with status " + std::to_string(r.rc) + " (an internal error; see " + dir + "/stdout.txt)";
+  std::ifstream in(dir + "/stdout.txt");
+  std::string line;
+  while (std::getline(in, line))
+    for (const char* io : {"another biodem run is writing to this folder", "write failed", "cannot be written",
+                           "cannot write", "No space left", "Disk quota", "Read-only file system", "Permission denied"})
+      if (line.find(io) != std::string::npos) return "could not write its outputs: " + line;
+  return "";
+}
 }  // namespace biodem::calib

@@ -82,16 +82,17 @@ DirLock::~DirLock() {
   if (fd_ >= 0) ::close(fd_);  // (closing releases the flock)
 }
 
-DirLock lock_output_dir(const std::string& dir) {
+DirLock lock_output_dir(const std::string& dir, bool inherited_by_children) {
   const std::string path = (fs::path(dir) / ".biodem.lock").string();
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CREAT | O_CLOEXEC, 0644);
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CREAT | (inherited_by_children ? 0 : O_CLOEXEC), 0644);
   if (fd < 0) throw Error("--out " + dir + ": cannot open " + path + ": " + std::strerror(errno));
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     if (err == EWOULDBLOCK) {
       ::close(fd);
       throw Error("--out " + dir + ": another biodem run is writing to this folder (" + path +
-                  " is locked); wait for it to end, or choose another --out");
+                  " is locked, by a run, or a calibration campaign or one of its test runs); wait for it to "
+                  "end, or choose another --out");
     }
     // A file system without locks (some network and cluster mounts): the run goes on unguarded,
     // as before there was a lock.

@@ -29,6 +29,9 @@ class DirLock {
  private:
   int fd_ = -1;
 };
-DirLock lock_output_dir(const std::string& dir);
+/// `inherited_by_children`: the lock's descriptor is left open in the processes this one starts
+/// (a calibration campaign's test runs), so that the folder stays locked while any of them lives,
+/// also after the campaign itself was killed.
+DirLock lock_output_dir(const std::string& dir, bool inherited_by_children = false);
 
 }  // namespace biodem::output

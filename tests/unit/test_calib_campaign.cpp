@@ -15,6 +15,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "calib/calib_file.hpp"
 #include "calib/evaluations_csv.hpp"
@@ -24,6 +25,7 @@
 #include "calib/campaign.hpp"
 #endif
 #include "core/error.hpp"
+#include "output/output_dir.hpp"
 #include "test_util.hpp"
 
 #include <toml++/toml.h>
@@ -331,7 +333,7 @@ TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {
   o.runner = [](const calib::TestJob& j) {
     calib::TestRun r = model(j, nullptr);
     if (j.test == 1 && j.evaluation == 2) {
-      r.rc = 1;  // the shear box of the third evaluation of each batch fails
+      r.rc = 2;  // the shear box of the third evaluation of each batch fails (biodem's status for a failed run)
       r.responses.clear();
     }
     return r;
@@ -347,6 +349,91 @@ TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {
     EXPECT_EQ(e.o1 == 1e9 && e.o2 == 1e9, std::isnan(e.responses[1])) << e.generation << " " << e.index;
   }
   EXPECT_NE(slurp(d + "/campaign.log").find("shear_box failed"), std::string::npos);
+}
+
+// A failure that says nothing of the parameters stops the campaign before its batch is scored,
+// with one line naming the run: a test run killed (status 128 + 9), an internal error (3), one
+// that could not write its outputs (2 with its message in stdout.txt), one that could not be
+// started (-1). Before, each was scored 1e9 and cached, so --resume kept it for good. --resume
+// then ends with the files of an uninterrupted campaign.
+TEST(CalibCampaign, AFailureThatSaysNothingOfTheParametersStopsTheCampaignUnscored) {
+  const auto c = micro();
+  const std::string ref = fresh_dir("calib_model_unscorable_ref");
+  run(c, ref, 1, false);
+  struct Case {
+    int rc;
+    std::string stdout_text, names;
+  };
+  const std::vector<Case> cases = {
+      {128 + 9, "", "was ended by signal 9"},
+      {3, "biodem: internal error: something\n", "ended with status 3"},
+      {2, "biodem: error: out/trace.csv: write failed (disk full, or a file size limit?)\n", "could not write its outputs"},
+      {2, "biodem: error: --out x: another biodem run is writing to this folder (x/.biodem.lock is locked)\n",
+       "could not write its outputs"},
+      {-1, "", "could not be started"},
+  };
+  for (const auto& k : cases) {
+    const std::string d = fresh_dir("calib_model_unscorable");
+    calib::CampaignOptions o;
+    o.out_dir = d;
+    o.jobs = 2;
+    o.runner = [&k](const calib::TestJob& j) {
+      calib::TestRun r = model(j, nullptr);
+      if (j.test == 1 && j.evaluation == 5) {
+        fs::create_directories(j.dir);
+        std::ofstream(j.dir + "/stdout.txt") << k.stdout_text;
+        r.rc = k.rc;
+        r.responses.clear();
+      }
+      return r;
+    };
+    try {
+      calib::run_campaign(c, o);
+      ADD_FAILURE() << k.names << ": the campaign went on";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(k.names), std::string::npos) << m;
+      EXPECT_NE(m.find("runs/g0/e5/shear_box"), std::string::npos) << m;
+      EXPECT_NE(m.find("continue with --resume"), std::string::npos) << m;
+      EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    }
+    EXPECT_EQ(calib::read_evaluations(d + "/cache.csv", 3, 2).size(), 0u) << k.names << ": a batch was scored";
+    run(c, d, 2, true);
+    EXPECT_EQ(without_wall(ref + "/evaluations.csv"), without_wall(d + "/evaluations.csv")) << k.names;
+    EXPECT_EQ(without_wall(ref + "/pareto.csv"), without_wall(d + "/pareto.csv")) << k.names;
+  }
+}
+
+// An exception on a worker thread (a runner that throws) ends the campaign with its message,
+// not with std::terminate; a campaign folder in use by another campaign is refused before
+// anything is written or run.
+TEST(CalibCampaign, AWorkerExceptionAndAFolderInUseAreOneLineErrors) {
+  const auto c = micro();
+  calib::CampaignOptions o;
+  o.out_dir = fresh_dir("calib_model_throw");
+  o.jobs = 3;
+  o.runner = [](const calib::TestJob& j) -> calib::TestRun {
+    if (j.evaluation == 4) throw Error("model cannot evaluate e4");
+    return model(j, nullptr);
+  };
+  try {
+    calib::run_campaign(c, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("model cannot evaluate e4"), std::string::npos) << e.what();
+  }
+  const std::string d = fresh_dir("calib_model_locked");
+  fs::create_directories(d);
+  const output::DirLock held = output::lock_output_dir(d);
+  std::atomic<int> calls{0};
+  try {
+    run(c, d, 1, false, &calls);
+    ADD_FAILURE() << "a second campaign ran in a folder in use";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("another biodem run is writing to this folder"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(calls.load(), 0);
+  EXPECT_FALSE(fs::exists(d + "/cache.csv"));
 }
 #else
 TEST(CalibCampaign, NotBuilt) { GTEST_SKIP() << "pagmo not found: the campaign is not built"; }

@@ -242,6 +242,42 @@ TEST(CalibDrum, SeedsOfATestAndTheirErrors) {
   EXPECT_NE(calib::with_seed("[insertion]\ncount = 5\n", 3).find("seed = 3"), std::string::npos);
 }
 
+// What a calibration file may not say, each a one-line error naming the key (before, each was
+// accepted: a nan target scored every evaluation 1e9 and ended "done"; a parameter named index
+// made --evaluate read the index column; two parameters on one key left the first a dead
+// dimension; a second target was ignored; zero weights made o1 0 for all; seed 2^32 + 5 ran the
+// search of seed 5; a population of 4e12 failed with bad_alloc after the folder was made).
+TEST(CalibDrum, CalibrationFileMistakesAreOneLineErrors) {
+  const std::string good = drum_calib("", kDrumTargets);
+  auto with = [&](std::string text, const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+    return text;
+  };
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"nan", with(good, "value = 150.0", "value = nan"), "[[target]] #1.value: must be a finite number"},
+      {"inf", with(good, "lower = 0.1", "lower = -inf"), "[[parameter]] #1.lower: must be a finite number"},
+      {"index", with(good, "name = \"mu_s\"", "name = \"index\""), "[[parameter]] #1.name = \"index\": is a column"},
+      {"wall", with(good, "name = \"mu_r\"", "name = \"wall_s\""), "[[parameter]] #2.name = \"wall_s\": is a column"},
+      {"response", with(good, "name = \"mu_s\"", "name = \"event_count\""), "is a response's column"},
+      {"samekey", with(good, "pair.bead.bead.rolling_friction", "pair.bead.bead.sliding_friction"),
+       "[[parameter]] #2.keys: \"pair.bead.bead.sliding_friction\" is set by parameter \"mu_s\" already"},
+      {"twotargets", good + "[[target]]\nresponse = \"event_count\"\nvalue = 7.0\nunit = \"\"\n",
+       "[[target]] #3.response = \"event_count\": has a target already"},
+      {"zeroweights", with(good, "o1 = [\"uas_deg_p50\"]", "o1 = [\"uas_deg_p50\"]\no1_weights = [0.0]"),
+       "[objectives].o1_weights: at least one weight must be positive"},
+      {"bigseed", "[campaign]\nseed = 4294967301\n" + good, "[campaign].seed = 4294967301: at most 4294967295"},
+      {"bigpop", "[campaign]\npopulation = 4000000000000\n" + good, "[campaign].population = 4000000000000: at most 100000"},
+  };
+  for (const auto& [tag, text, message] : cases) {
+    const std::string e = load_error(calib_dir("mistake_" + tag, kDrumCase, text));
+    EXPECT_NE(e.find(message), std::string::npos) << tag << ": " << e;
+    EXPECT_EQ(e.find('\n'), std::string::npos) << tag << ": " << e;
+  }
+  EXPECT_NO_THROW(calib::load_calib(calib_dir("mistake_none", kDrumCase, good)));
+}
+
 TEST(CalibDrum, EvaluateFileRowsAndItsErrors) {
   const auto c = calib::load_calib(calib_dir("rows", kDrumCase, drum_calib("", kDrumTargets)));
   const std::string d = fresh_dir("calib_drum_rows_files");
