@@ -352,7 +352,8 @@ RunSummary Runner::run() {
   if (!sim_.sinks().empty())
     log_ << "sinks removed " << sim_.removed_bodies() << " bodies, " << sim_.removed_mass_kg() << " kg\n";
   if (sim_.lost_bodies())
-    log_ << "lost bodies removed (left the drum or the [run] bounds box): " << sim_.lost_bodies() << "\n";
+    log_ << "WARNING: lost bodies removed (left the drum or the [run] bounds box): " << sim_.lost_bodies()
+         << (cfg_.bulk_test ? " (the bulk test's responses count them as gone)" : "") << "\n";
   log_ << "finished: " << r.steps << " steps, " << r.simulated_s << " s simulated, wall " << wall << " s, "
        << rate << " sphere-steps/s";
   if (dev_)
