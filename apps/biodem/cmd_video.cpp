@@ -2,8 +2,10 @@
 // a back-lit drum film given as a folder of frames or a video file (SPEC 6, 11), written as
 // DIR/series.csv in the same format as a simulation's, ready for `biodem analyze`. Also
 // DIR/video_check.png: the first frame with the disc found, the powder mask and the surface
-// profile, to check the set-up. Frames are read in batches and their rows written as they are
-// measured, so memory does not grow with the length of the film.
+// profile, to check the set-up. Frames are read and measured in batches, so memory does not grow
+// with the length of the film but for the rows of series.csv (some 50 bytes a frame), which are
+// written whole, with video_check.png, only when the command succeeds (a temporary file renamed
+// over the old one): a run that fails leaves the folder's earlier files as they were.
 #include <omp.h>
 
 #include <algorithm>
@@ -25,6 +27,8 @@
 #include "analysis/video_frames.hpp"
 #include "commands.hpp"
 #include "core/error.hpp"
+#include "output/analysis_files.hpp"
+#include "output/output_dir.hpp"
 #include "output/png_mat.hpp"
 #include "output/progress.hpp"
 #include "output/series_csv.hpp"
@@ -37,6 +41,11 @@ namespace {
 // frames), measured with a back-light fitted to each frame, are warned about (docs/analysis.md,
 // video limits).
 constexpr double kGreyBed = 0.5;
+
+// The disc search reads up to this many readable frames (unreadable files do not count), trying
+// the disc on up to kDiscTries of them.
+constexpr std::size_t kDiscSearchFrames = 64;
+constexpr std::size_t kDiscTries = 50;
 
 namespace fs = std::filesystem;
 
@@ -55,12 +64,24 @@ struct VideoOptions {
   bool quiet = false;
   CLI::Option* radius_opt = nullptr;
   CLI::Option* threshold_opt = nullptr;
+  CLI::Option* wall_zone_opt = nullptr;
 };
 
 std::string fmt(double v, const char* f = "%.4g") {
   char buf[48];
   std::snprintf(buf, sizeof buf, f, v);
   return buf;
+}
+
+// True if a and b name the same existing folder (through links, "..", a trailing "/").
+bool same_folder(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  if (fs::equivalent(a, b, ec)) return true;
+  const fs::path ca = fs::weakly_canonical(a, ec);
+  if (ec) return false;
+  const fs::path cb = fs::weakly_canonical(b, ec);
+  if (ec) return false;
+  return ca.lexically_normal() == cb.lexically_normal();
 }
 
 void write_check_image(const fs::path& path, const cv::Mat& grey, const analysis::DrumDisc& disc,
@@ -115,6 +136,8 @@ int run_video(const VideoOptions& o) {
   if (!(o.fps > 0.0) || !std::isfinite(o.fps)) throw Error("--fps must be > 0");
   if (!(o.rpm > 0.0) || !std::isfinite(o.rpm)) throw Error("--rpm must be > 0");
   if (o.bin_px < 1) throw Error("--bin-px must be >= 1");
+  if (o.wall_zone_opt->count() && !(o.wall_zone_px >= 0.0 && std::isfinite(o.wall_zone_px)))
+    throw Error("--wall-zone-px must be >= 0 (pixels; leave it out for 5 % of the disc radius)");
   const bool given_centre = !o.center_px.empty();
   const bool given_radius = o.radius_opt->count() > 0;
   if (given_centre != given_radius) throw Error("give --center-px and --radius-px together");
@@ -139,10 +162,20 @@ int run_video(const VideoOptions& o) {
     std::cerr << "warning: --fps " << fmt(o.fps, "%g") << " differs from the video's own frame rate "
               << fmt(source->container_fps(), "%g") << " fps; times use --fps\n";
 
+  // The output folder: not the frames' own (the next run would read video_check.png as a
+  // frame), not a simulation run's (its series.csv would be replaced), locked for the command
+  // (a run or another video writing there at the same time).
   const fs::path out_dir = o.out;
+  if (!source->is_video() && same_folder(out_dir, o.frames))
+    throw Error("--out '" + o.out + "' is the frames folder; choose another folder for series.csv and video_check.png");
   std::error_code ec;
+  for (const char* run_file : {"run.log", "checkpoint.bin"})
+    if (fs::exists(out_dir / run_file, ec))
+      throw Error("--out '" + o.out + "' holds a simulation run's outputs (" + run_file +
+                  "); biodem video would replace its series.csv: choose another --out");
   fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir)) throw Error("cannot create output folder '" + o.out + "'");
+  if (!fs::is_directory(out_dir, ec)) throw Error("cannot create output folder '" + o.out + "'");
+  const output::DirLock lock = output::lock_output_dir(o.out);
 
   analysis::FrameParams params;
   params.rotation = o.rotation == "cw" ? analysis::Rotation::cw : analysis::Rotation::ccw;
@@ -152,7 +185,8 @@ int run_video(const VideoOptions& o) {
 
   // The camera is fixed: the disc is found once, on the empty-drum background when given, else
   // on the first readable frame where its rim shows (frames taken while a drum is being filled
-  // can hide most of the rim; up to 50 are tried). Frames read meanwhile are kept and measured
+  // can hide most of the rim; up to kDiscTries are tried among the first kDiscSearchFrames
+  // readable ones; unreadable files do not count). Frames read meanwhile are kept and measured
   // first.
   std::vector<analysis::VideoFrame> pending;
   analysis::DrumDisc disc{};
@@ -170,16 +204,17 @@ int run_video(const VideoOptions& o) {
     found = true;
     disc_from = "found on the background";
   }
-  for (std::size_t tried = 0; pending.size() < 64;) {
+  for (std::size_t tried = 0, readable = 0; readable < kDiscSearchFrames;) {
     analysis::VideoFrame f;
     if (!source->next(f)) break;
     source->load(f);
     pending.push_back(std::move(f));
     const cv::Mat& img = pending.back().grey;
     if (img.empty()) continue;
+    ++readable;
     if (!size) size = img.size();
     if (found) break;
-    if (img.size() != *size || tried++ >= 50) continue;
+    if (img.size() != *size || tried++ >= kDiscTries) continue;
     try {
       disc = analysis::find_drum_disc(img);
       found = true;
@@ -189,9 +224,13 @@ int run_video(const VideoOptions& o) {
       if (first_error.empty()) first_error = pending.back().name + ": " + e.what();
     }
   }
-  if (!size)
-    throw Error(std::string(source->is_video() ? "the video '" : "none of the frames in '") + o.frames +
-                "' can be read as an image");
+  if (!size) {
+    if (!source->is_video()) throw Error("none of the frames in '" + o.frames + "' can be read as an image");
+    throw Error("no frame of the video '" + o.frames + "' can be decoded" +
+                (source->container_frames() > 0
+                     ? " (its container declares " + std::to_string(source->container_frames()) + " frames)"
+                     : std::string()));
+  }
   if (!found) throw Error(first_error.empty() ? "could not find the drum disc in '" + o.frames + "'" : first_error);
   if (!background.empty()) {
     if (background.size() != *size)
@@ -203,15 +242,17 @@ int run_video(const VideoOptions& o) {
   if (!o.quiet)
     std::cerr << "drum disc: centre (" << fmt(disc.cx_px, "%.1f") << ", " << fmt(disc.cy_px, "%.1f")
               << ") px, radius " << fmt(disc.radius_px, "%.1f") << " px (" << disc_from << ")\n";
+  cv::Mat check_frame;  // drawn into video_check.png when the command succeeds
   for (const auto& f : pending)
     if (!f.grey.empty() && f.grey.size() == *size) {
-      write_check_image(out_dir / "video_check.png", f.grey, disc, params);
+      check_frame = f.grey;
       break;
     }
 
-  output::SeriesWriter writer(out_dir / "series.csv", false);
+  std::string rows = std::string(output::kSeriesHeader) + "\n";
   NameList unreadable, wrong_size, empty;
   std::size_t total = 0, measured = 0;
+  std::size_t most_bins = 0;  // the most surface-profile bins of a frame with powder
   std::vector<double> bed_light;  // FrameMeasure::bed_light of the frames with powder
   output::Progress progress(std::cerr, output::Progress::stderr_is_terminal(), 5.0);
   const std::size_t batch = 16 * static_cast<std::size_t>(std::max(1, omp_get_max_threads()));
@@ -267,6 +308,7 @@ int run_video(const VideoOptions& o) {
       if (!m.has_powder) empty.add(f.name);
       else ++measured;
       if (m.has_powder && std::isfinite(m.bed_light)) bed_light.push_back(m.bed_light);
+      if (m.has_powder) most_bins = std::max(most_bins, m.surface.bins_used);
       output::SeriesRow row;
       row.time_s = static_cast<double>(f.index) / o.fps;
       row.revolution = o.rpm * row.time_s / 60.0;
@@ -275,7 +317,7 @@ int run_video(const VideoOptions& o) {
         row.surface_r2 = m.surface.r2;
         row.surface_angle_deg = m.surface.angle_deg;
       }
-      writer.write(row);
+      output::append_series_row(rows, row);
     }
     if (!o.quiet && !frames.empty()) {
       const std::size_t n = std::max(source->size_hint(), total);
@@ -284,7 +326,6 @@ int run_video(const VideoOptions& o) {
                       static_cast<double>(frames.back().index) / o.fps);
     }
   }
-  writer.flush();
 
   if (!o.quiet) progress.finish("measured " + std::to_string(measured) + " of " + std::to_string(total) + " frames");
   if (!unreadable.empty())
@@ -295,6 +336,17 @@ int run_video(const VideoOptions& o) {
   if (!empty.empty())
     std::cerr << "warning: no powder found in " << empty.size() << " frame(s) (alpha left empty): "
               << empty.str() << "\n";
+  // A damaged or cut-short video: decoding stops at the first frame that cannot be decoded. The
+  // container's count can be approximate for some codecs, so this is a warning.
+  if (source->is_video() && source->container_frames() > total)
+    std::cerr << "warning: the video '" << o.frames << "' declares " << source->container_frames()
+              << " frames but only " << total << " could be decoded (a damaged or cut-short file?): series.csv ends at t = "
+              << fmt(static_cast<double>(total - 1) / o.fps, "%.4g") << " s\n";
+  if (measured > 0 && most_bins < 3)
+    std::cerr << "warning: the surface profile has at most " << most_bins << " bin(s) in any frame, r^2 needs 3: "
+              << "surface_r2 is empty for every frame (--bin-px " << o.bin_px << ", --wall-zone-px "
+              << (o.wall_zone_opt->count() ? fmt(o.wall_zone_px, "%g") : "default " + fmt(0.05 * disc.radius_px, "%.3g"))
+              << ", disc radius " << fmt(disc.radius_px, "%.1f") << " px)\n";
   // A bed passing over half the light cannot be told from the vignetting by a back-light fitted to
   // each frame (docs/analysis.md): the bed may then be found only in part.
   if (params.illumination.empty() && !bed_light.empty()) {
@@ -308,7 +360,14 @@ int run_video(const VideoOptions& o) {
                    "from part of the bed: give --background (a frame of the empty, lit drum)\n";
   }
   if (measured == 0) throw Error("no frame in '" + o.frames + "' showed powder in the drum disc");
-  std::cout << "wrote " << writer.path().string() << " (" << measured << " frames, "
+
+  // Success: an earlier `biodem analyze` of the folder described the series replaced now, so its
+  // tables and plots go first; then the new files, each whole (temporary file and rename).
+  output::remove_analysis_outputs(o.out);
+  if (!check_frame.empty()) write_check_image(out_dir / "video_check.png", check_frame, disc, params);
+  const fs::path series_path = out_dir / "series.csv";
+  output::write_file_atomic(series_path.string(), rows);
+  std::cout << "wrote " << series_path.string() << " (" << measured << " frames, "
             << fmt(static_cast<double>(total) / o.fps, "%.3g") << " s at " << fmt(o.fps, "%g")
             << " fps)\n";
   return 0;
@@ -338,10 +397,10 @@ Action register_video(CLI::App& app) {
   sub->add_option("--background", o->background,
                   "image of the empty, lit drum from the same camera: flat-field reference for "
                   "uneven back-light and vignetting (default: the back-light is fitted per frame)");
-  sub->add_option("--wall-zone-px", o->wall_zone_px,
-                  "surface points closer than this to the rim are excluded from r^2 (default: 5 % "
-                  "of the radius)");
-  sub->add_option("--bin-px", o->bin_px, "image columns per surface-profile bin (default 1)");
+  o->wall_zone_opt = sub->add_option("--wall-zone-px", o->wall_zone_px,
+                                     "surface points closer than this (>= 0 px) to the rim are excluded from r^2 "
+                                     "(default: 5 % of the radius)");
+  sub->add_option("--bin-px", o->bin_px, "image columns per surface-profile bin, >= 1 (default 1)");
   sub->add_flag("--quiet", o->quiet, "no progress output");
   return [o] { return run_video(*o); };
 }

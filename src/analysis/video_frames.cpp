@@ -1,8 +1,13 @@
 #include "analysis/video_frames.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <fstream>
+#include <iostream>
 #include <string_view>
 #include <system_error>
 
@@ -129,31 +134,121 @@ class FolderSource final : public FrameSource {
   std::size_t pos_ = 0;
 };
 
+// Points stderr (file descriptor 2) at `fd` while it lives, then restores it. FFmpeg and
+// GStreamer print their own lines on stderr ("moov atom not found", "Invalid data found when
+// processing input", decoder complaints about a damaged frame) while a video is opened and
+// decoded; they would make biodem's one-line error or warning several lines. Used only around
+// those calls, on the one thread that reads the video (frames are measured between reads, not
+// during them), so biodem's own messages are never lost. Does nothing if fd < 0 or stderr cannot
+// be duplicated.
+class StderrTo {
+ public:
+  explicit StderrTo(int fd) {
+    if (fd < 0) return;
+    std::cerr.flush();
+    std::fflush(stderr);
+    saved_ = ::fcntl(STDERR_FILENO, F_DUPFD_CLOEXEC, 0);
+    if (saved_ >= 0 && ::dup2(fd, STDERR_FILENO) < 0) {
+      ::close(saved_);
+      saved_ = -1;
+    }
+  }
+  ~StderrTo() {
+    if (saved_ < 0) return;
+    std::fflush(stderr);
+    ::dup2(saved_, STDERR_FILENO);
+    ::close(saved_);
+  }
+  StderrTo(const StderrTo&) = delete;
+  StderrTo& operator=(const StderrTo&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
+// The first non-empty line of what was written to `f`, without FFmpeg's "[demuxer @ 0x...] "
+// prefix, at most 200 characters; "" if none.
+std::string first_message(std::FILE* f) {
+  if (!f) return {};
+  std::fflush(f);
+  std::rewind(f);
+  char buf[4096];
+  const std::size_t n = std::fread(buf, 1, sizeof buf, f);
+  std::string_view text(buf, n);
+  while (!text.empty()) {
+    const std::size_t eol = text.find_first_of("\r\n");
+    std::string_view line = text.substr(0, eol);
+    text = eol == std::string_view::npos ? std::string_view{} : text.substr(eol + 1);
+    if (line.starts_with('[')) {
+      const std::size_t close = line.find("] ");
+      if (close != std::string_view::npos) line.remove_prefix(close + 2);
+    }
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.front()))) line.remove_prefix(1);
+    while (!line.empty() && std::isspace(static_cast<unsigned char>(line.back()))) line.remove_suffix(1);
+    if (line.empty()) continue;
+    std::string out;
+    for (char c : line.substr(0, 200)) out += std::isprint(static_cast<unsigned char>(c)) ? c : ' ';
+    return out;
+  }
+  return {};
+}
+
 class VideoSource final : public FrameSource {
  public:
-  explicit VideoSource(const std::string& path) {
+  explicit VideoSource(const std::string& path) : quiet_fd_(::open("/dev/null", O_WRONLY | O_CLOEXEC)) {
     bool opened = false;
-    try {
-      opened = cap_.open(path, cv::CAP_ANY);
-    } catch (const cv::Exception&) {
-      opened = false;
+    std::string said;
+    {
+      // What the back-ends print while opening is kept, to name the reason in the error.
+      std::FILE* log = std::tmpfile();
+      {
+        StderrTo redirect(log ? fileno(log) : quiet_fd_);
+        try {
+          opened = cap_.open(path, cv::CAP_ANY);
+        } catch (const cv::Exception&) {
+          opened = false;
+        }
+        opened = opened && cap_.isOpened();
+        if (opened) {
+          const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
+          count_ = n > 0.0 && n < 1e9 ? static_cast<std::size_t>(n) : 0;
+          fps_ = cap_.get(cv::CAP_PROP_FPS);
+          if (!(fps_ > 0.0) || fps_ > 1e6) fps_ = 0.0;
+        }
+      }
+      if (!opened) said = first_message(log);
+      if (log) std::fclose(log);
     }
-    if (!opened || !cap_.isOpened())
-      throw Error("cannot open video '" + path + "' (not a video OpenCV can decode)");
-    const double n = cap_.get(cv::CAP_PROP_FRAME_COUNT);
-    count_ = n > 0.0 && n < 1e9 ? static_cast<std::size_t>(n) : 0;
-    fps_ = cap_.get(cv::CAP_PROP_FPS);
-    if (!(fps_ > 0.0) || fps_ > 1e6) fps_ = 0.0;
+    if (!opened) {
+      close_quiet();
+      throw Error("cannot open video '" + path + "' (not a video OpenCV can decode" +
+                  (said.empty() ? std::string() : ": " + said) + ")");
+    }
   }
+  ~VideoSource() override {
+    {
+      StderrTo redirect(quiet_fd_);
+      cap_.release();
+    }
+    close_quiet();
+  }
+  VideoSource(const VideoSource&) = delete;
+  VideoSource& operator=(const VideoSource&) = delete;
+
   bool next(VideoFrame& f) override {
     cv::Mat img;
     bool ok = false;
-    try {
-      ok = cap_.read(img);
-    } catch (const cv::Exception&) {
-      ok = false;
+    {
+      StderrTo redirect(quiet_fd_);
+      try {
+        ok = cap_.read(img);
+      } catch (const cv::Exception&) {
+        ok = false;
+      }
     }
-    if (!ok || img.empty()) return false;  // end of the film (or a stream that cannot go on)
+    // The end of the film, or a frame that cannot be decoded (a damaged or cut-short file: the
+    // caller compares the count with container_frames()).
+    if (!ok || img.empty()) return false;
     f = VideoFrame{};
     f.index = pos_;
     f.name = "frame " + std::to_string(pos_);
@@ -165,8 +260,15 @@ class VideoSource final : public FrameSource {
   std::size_t size_hint() const override { return std::max(count_, pos_); }
   bool is_video() const override { return true; }
   double container_fps() const override { return fps_; }
+  std::size_t container_frames() const override { return count_; }
 
  private:
+  void close_quiet() {
+    if (quiet_fd_ >= 0) ::close(quiet_fd_);
+    quiet_fd_ = -1;
+  }
+
+  int quiet_fd_ = -1;  // /dev/null, for stderr while a frame is decoded
   cv::VideoCapture cap_;
   std::size_t count_ = 0, pos_ = 0;
   double fps_ = 0.0;

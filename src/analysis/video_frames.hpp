@@ -37,7 +37,10 @@ struct VideoFrame {
 class FrameSource {
  public:
   /// A folder of frames, or any video file OpenCV's VideoCapture opens (.avi, .mp4, ...).
-  /// Throws biodem::Error naming the path when it is missing or cannot be opened.
+  /// Throws biodem::Error naming the path when it is missing or cannot be opened. For a video,
+  /// what FFmpeg or GStreamer print on stderr while the file is opened and decoded is kept off
+  /// the terminal (stderr is pointed at /dev/null around those calls, then restored): the first
+  /// line printed while opening a file that cannot be opened ends the error message instead.
   static std::unique_ptr<FrameSource> open(const std::string& path);
   virtual ~FrameSource() = default;
   /// Next frame in order (a video decodes it here; a folder only names the file); false at the end.
@@ -49,6 +52,11 @@ class FrameSource {
   virtual bool is_video() const = 0;
   /// Frame rate stored in a video container (0 if none or a folder).
   virtual double container_fps() const { return 0.0; }
+  /// Number of frames a video container declares (0 if it declares none, or a folder). It may be
+  /// approximate for some codecs; more frames decoded than declared is not an error, fewer is
+  /// warned about by `biodem video` (a damaged or cut-short file: decoding stops at the first
+  /// frame that cannot be decoded).
+  virtual std::size_t container_frames() const { return 0; }
 };
 
 }  // namespace biodem::analysis

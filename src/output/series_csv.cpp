@@ -208,15 +208,21 @@ SeriesWriter::~SeriesWriter() {
   if (out_.is_open()) out_.flush();
 }
 
-void SeriesWriter::write(const SeriesRow& r) {
+void append_series_row(std::string& out, const SeriesRow& r) {
   auto opt = [](const std::optional<double>& v) { return v ? csv_number(*v) : std::string(); };
-  out_ << csv_number(r.time_s, 12) << ',' << csv_number(r.revolution, 12) << ','
-       << csv_number(r.alpha_deg) << ',' << opt(r.surface_r2) << ',' << opt(r.surface_angle_deg)
-       << ',' << opt(r.kinetic_energy_j) << ',';
-  if (r.contacts) out_ << *r.contacts;
-  out_ << ',';
-  if (r.lost_bodies) out_ << *r.lost_bodies;
-  out_ << '\n';
+  ((((out += csv_number(r.time_s, 12)) += ',') += csv_number(r.revolution, 12)) += ',') += csv_number(r.alpha_deg);
+  (((((out += ',') += opt(r.surface_r2)) += ',') += opt(r.surface_angle_deg)) += ',') += opt(r.kinetic_energy_j);
+  out += ',';
+  if (r.contacts) out += std::to_string(*r.contacts);
+  out += ',';
+  if (r.lost_bodies) out += std::to_string(*r.lost_bodies);
+  out += '\n';
+}
+
+void SeriesWriter::write(const SeriesRow& r) {
+  std::string row;
+  append_series_row(row, r);
+  out_ << row;
   if (++unflushed_ >= 50) flush();
 }
 

@@ -53,6 +53,11 @@ struct SeriesRow {
   std::optional<std::int64_t> lost_bodies;  // bodies removed so far for leaving the drum (simulation)
 };
 
+/// Appends one row of series.csv to `out`: the cells and digits SeriesWriter writes (time and
+/// revolution with 12 significant digits, the rest with 10, missing values empty), for a writer
+/// that keeps the rows and writes the file whole (`biodem video`).
+void append_series_row(std::string& out, const SeriesRow& r);
+
 /// Appends rows to a series.csv. `path` is the file, or an existing directory in which
 /// series.csv is opened. With append = false the file is replaced; with append = true rows are
 /// added after the existing ones (the header is written only if the file is new or empty, and an
