@@ -120,6 +120,13 @@ SeriesFile read_series_csv(const fs::path& path) {
     ++line_no;
     if (trim(line).empty() || trim(line).front() == '#') continue;
     const auto cells = split(line);
+    if (cells.size() != header.size() && in.eof()) {
+      // The last line, without its end of line, short of cells: a run killed while writing it.
+      out.warnings.push_back("series file '" + name + "': the last line (" + std::to_string(line_no) + ") is cut short (" +
+                             std::to_string(cells.size()) + " of " + std::to_string(header.size()) +
+                             " cells, no end of line: a run killed while writing it?): skipped");
+      break;
+    }
     if (cells.size() != header.size()) {
       throw Error("series file '" + name + "' line " + std::to_string(line_no) + ": " +
                   std::to_string(cells.size()) + " cells, the header has " +

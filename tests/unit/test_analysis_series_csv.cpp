@@ -149,6 +149,22 @@ TEST(AnalysisSeriesCsv, RowsOutOfTimeOrderAreAnError) {
   EXPECT_DOUBLE_EQ(f.series.alpha_deg[1], 41.1);
 }
 
+// A last line cut short without its end of line (a run killed with SIGKILL while the writer
+// flushed) is skipped with a warning; a short line that ends its line, or one in the middle,
+// stays an error (before, the cut last line made the whole series unreadable).
+TEST(AnalysisSeriesCsv, LastLineCutShortIsSkippedWithAWarning) {
+  test::TempDir dir("series_cut");
+  write_file(dir / "cut.csv", "time_s,revolution,alpha_deg,contacts\n0,0,40,5\n0.02,0.0001,40.1,5\n0.04,0.0002,40.2,5\n0.06,0.00");
+  const auto f = output::read_series_csv(dir / "cut.csv");
+  EXPECT_EQ(f.series.size(), 3u);
+  ASSERT_EQ(f.warnings.size(), 1u);
+  EXPECT_TRUE(contains(f.warnings[0], "the last line (5) is cut short (2 of 4 cells")) << f.warnings[0];
+  write_file(dir / "ended.csv", "time_s,revolution,alpha_deg,contacts\n0,0,40,5\n0.02,0.0001\n");
+  EXPECT_TRUE(contains(read_error(dir / "ended.csv"), "line 3: 2 cells"));
+  write_file(dir / "middle.csv", "time_s,revolution,alpha_deg,contacts\n0,0\n0.02,0.0001,40.1,5");
+  EXPECT_TRUE(contains(read_error(dir / "middle.csv"), "line 2: 2 cells"));
+}
+
 TEST(AnalysisSeriesCsv, WriterRefusesAForeignFileAndUnwritablePath) {
   test::TempDir dir("series_writer_bad");
   write_file(dir / "other.csv", "a,b\n1,2\n");
