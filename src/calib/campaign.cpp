@@ -94,7 +94,10 @@ class Campaign {
     if (o_.resume) {
       if (!fs::exists(cache_csv)) throw Error("--resume: " + cache_csv + " does not exist (nothing to resume)");
       std::string was;  // (a folder of a build before campaign.id: a search of the same file is assumed)
-      if (std::ifstream f(id_file); f) std::getline(f, was);
+      if (std::ifstream f(id_file); f) {
+        std::getline(f, was);
+        std::getline(f, made_by_);  // "build: ..." (a campaign.id of a build before it has none)
+      }
       if (!was.empty() && was.substr(0, was.find(' ')) != id.substr(0, id.find(' ')))
         throw Error("--resume: " + out + " holds " +
                     (was.rfind("search", 0) == 0 ? std::string("a search (NSGA-II) campaign; --evaluate")
@@ -109,7 +112,8 @@ class Campaign {
       throw Error("--out " + out + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
     }
     fs::create_directories(out + "/runs");
-    if (!o_.resume || !fs::exists(id_file)) output::write_file_atomic(id_file, id + "\n");
+    const std::string build = "build: " + output::build_description();
+    if (!o_.resume || !fs::exists(id_file)) output::write_file_atomic(id_file, id + "\n" + build + "\n");
     log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
     log_ << (o_.resume ? "\nresumed: " : "biodem calibrate: ") << c_.source_path << "; ";
     if (given.empty())
@@ -121,7 +125,16 @@ class Campaign {
     else
       log_ << ", jobs " << o_.jobs;
     log_ << "; " << cache.size() << " evaluations cached\n";
-    log_ << "build: " << output::build_description() << "\n";
+    log_ << build << "\n";
+    // Evaluations cached by another build (another commit, compiler or engine setting) may not be
+    // what this one computes: said, not refused (a rebuild is often unrelated to the physics).
+    if (o_.resume && !made_by_.empty() && made_by_ != build && !cache.empty()) {
+      const std::string w = "calibrate: WARNING: the " + std::to_string(cache.size()) +
+                            " cached evaluations were made by another build (" + made_by_.substr(7) +
+                            "); the campaign's results may mix the two";
+      log_ << w << "\n";
+      std::cerr << w << "\n";
+    }
     log_.flush();
     {
       std::ofstream f(cache_csv, std::ios::app);
@@ -398,6 +411,7 @@ class Campaign {
   const MpiJob* mpi_;
   std::ofstream log_, evals_, cache_out_;
   std::size_t warned_runs_ = 0, no_heap_runs_ = 0;  // warnings of the test runs; heaps not found
+  std::string made_by_;  // campaign.id's second line: the build that started the campaign
   std::chrono::steady_clock::time_point t0_;
 };
 

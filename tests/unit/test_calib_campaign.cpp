@@ -404,6 +404,27 @@ TEST(CalibCampaign, AFailureThatSaysNothingOfTheParametersStopsTheCampaignUnscor
   }
 }
 
+// campaign.id names the build that started the campaign; a --resume by another build says in
+// campaign.log (and on stderr) that the cached evaluations were made by that one.
+TEST(CalibCampaign, AResumeByAnotherBuildIsWarnedAbout) {
+  const auto c = micro();
+  const std::string d = fresh_dir("calib_model_build");
+  run(c, d, 1, false);
+  const std::string id = slurp(d + "/campaign.id");
+  const auto eol = id.find('\n');
+  ASSERT_NE(eol, std::string::npos);
+  EXPECT_EQ(id.substr(eol + 1, 14), "build: biodem ") << id;
+  EXPECT_EQ(slurp(d + "/campaign.log").find("made by another build"), std::string::npos);
+  run(c, d, 1, true);  // the same build: nothing to say
+  EXPECT_EQ(slurp(d + "/campaign.log").find("made by another build"), std::string::npos);
+  std::ofstream(d + "/campaign.id") << id.substr(0, eol + 1) << "build: biodem 0.0.1 (source 0123456789ab; other)\n";
+  run(c, d, 1, true);
+  EXPECT_NE(slurp(d + "/campaign.log").find("cached evaluations were made by another build (biodem 0.0.1 (source "
+                                            "0123456789ab; other))"),
+            std::string::npos)
+      << slurp(d + "/campaign.log");
+}
+
 // An exception on a worker thread (a runner that throws) ends the campaign with its message,
 // not with std::terminate; a campaign folder in use by another campaign is refused before
 // anything is written or run.
