@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include "case_file/case_parser.hpp"
 #include "driver/build_simulation.hpp"
@@ -112,4 +113,37 @@ TEST(BuildSimulation, ContactSettingsReachTheEngine) {
   EXPECT_TRUE(built.sim->pair_table()(0, 0).tangential_reduce);
   EXPECT_TRUE(built.sim->pair_table()(0, 1).tangential_reduce);
   EXPECT_TRUE(built.sim->wall_rolling_lab());
+}
+
+// Coarse graining (SPEC 4): [insertion] coarse_grain = s multiplies every particle length, so a
+// sphere's radius by s and its mass by s^3, and nothing else: E, nu, restitution, friction,
+// rolling friction and the cohesion energy density reach the engine as written. (The cohesion
+// and rolling tests pass radii already scaled; a CED or a friction scaled with s on the way to
+// the engine would pass them.)
+TEST(BuildSimulation, CoarseGrainScalesLengthsAndMassesOnly) {
+  std::string text = scene("");
+  text.replace(text.find("position_m = [0, 0.001, 0]"), 26, "position_m = [0, 0.010, 0]");  // clear of the wall at 4x
+  text += "\n[[population]]\nshape = \"b\"\nmaterial = \"soft\"\nvolume_fraction = 1.0\n"
+          "\n[insertion]\ncount = 1\ncoarse_grain = 4.0\nregion = \"box\"\nregion_min_m = [-0.05, 0.02, -0.05]\n"
+          "region_max_m = [0.05, 0.1, 0.05]\n";
+  const auto fine = driver::build_simulation(case_file::parse_case(scene(""), "case.toml").config);
+  const auto coarse = driver::build_simulation(case_file::parse_case(text, "case.toml").config);
+  ASSERT_EQ(fine.sim->spheres().size(), 1u);
+  ASSERT_EQ(coarse.sim->spheres().size(), 1u);
+  EXPECT_DOUBLE_EQ(fine.sim->spheres().radius_m[0], 0.5e-3);
+  EXPECT_DOUBLE_EQ(coarse.sim->spheres().radius_m[0], 4 * 0.5e-3);
+  const double m1 = 1500.0 * 4.0 / 3.0 * std::numbers::pi * std::pow(0.5e-3, 3);
+  EXPECT_NEAR(fine.sim->bodies().mass_kg[0], m1, 1e-12 * m1);
+  EXPECT_NEAR(coarse.sim->bodies().mass_kg[0], 64.0 * m1, 1e-12 * 64.0 * m1);
+  for (auto [i, j] : {std::pair{0, 0}, std::pair{0, 1}}) {
+    const auto& f = fine.sim->pair_table()(i, j);
+    const auto& c = coarse.sim->pair_table()(i, j);
+    EXPECT_EQ(c.y_eff_pa, f.y_eff_pa);
+    EXPECT_EQ(c.g_eff_pa, f.g_eff_pa);
+    EXPECT_EQ(c.beta, f.beta);
+    EXPECT_EQ(c.friction, f.friction);
+    EXPECT_EQ(c.rolling_friction, f.rolling_friction);
+    EXPECT_EQ(c.cohesion_energy_density_j_m3, f.cohesion_energy_density_j_m3);
+  }
+  EXPECT_EQ(coarse.sim->pair_table()(0, 0).cohesion_energy_density_j_m3, 2000.0);
 }
