@@ -107,12 +107,16 @@ struct SimSetup {
   std::vector<shapes::ClumpTemplate> templates;
   double dt_s = 1e-6;
   Vec3 gravity_m_s2;
+  bool tangential_reduce = false;  // [contact] tangential_reduce for both pairs
 };
 
 inline contact::PairTable pair_table(const SimSetup& s) {
   contact::PairTable t(2);
-  t.set(kParticle, kParticle, pair_params(s.particle, s.particle, s.particle_particle));
-  t.set(kParticle, kWall, pair_params(s.particle, s.wall, s.particle_wall));
+  auto pp = pair_params(s.particle, s.particle, s.particle_particle);
+  auto pw = pair_params(s.particle, s.wall, s.particle_wall);
+  pp.tangential_reduce = pw.tangential_reduce = s.tangential_reduce;
+  t.set(kParticle, kParticle, pp);
+  t.set(kParticle, kWall, pw);
   return t;
 }
 
