@@ -460,7 +460,7 @@ namespace {
 /// A random packing of spheres (two sizes) and needles in a turning cylinder with a periodic
 /// axis: every slot of the contact model and every branch of the neighbour list.
 std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true, bool gravity = true,
-                                         bool spheres_only = false) {
+                                         bool spheres_only = false, bool tangential_reduce = false) {
   constexpr double kRc = 20e-3, kLz = 12e-3, kSpacing = 3e-3;
   config::Shape needle;
   needle.name = "needle";
@@ -476,6 +476,7 @@ std::unique_ptr<sim::Simulation> packing(double skin_m = -1.0, bool walls = true
   su.templates = {sphere_template(0.6e-3), sphere_template(0.45e-3), shapes::make_template(needle, 1.0)};
   su.dt_s = 1e-5;
   su.gravity_m_s2 = gravity ? Vec3{0, -9.81, 0} : Vec3{};
+  su.tangential_reduce = tangential_reduce;
   auto s = std::make_unique<sim::Simulation>(make_simulation(su));
   if (walls) s->add_wall(cylinder_wall({0, 0, 0}, {0, 0, 1}, kRc, 3.0));
   neighbor::Domain d;
@@ -585,28 +586,32 @@ TEST(GpuEngine, NeighbourListEqualsBruteForce) {
 }
 
 // The dense packing (needles, cohesion, rolling friction, a turning cylinder, a periodic axis,
-// list rebuilds) stepped 300 times by both engines: bodies agree to 1e-9 m.
+// list rebuilds) stepped 300 times by both engines, under each friction rule (the default, cohesion
+// kept out of the limits, and tangential_reduce): bodies agree to 1e-9 m.
 TEST(GpuEngine, DensePackingMatchesCpu) {
-  auto cpu = packing(), gs = packing();
-  auto eng = gpu_engine(*gs);
-  eng->upload();
-  std::size_t contacts = 0;
-  for (int k = 0; k < 300; ++k) {
-    cpu->step();
-    eng->step();
-    contacts += cpu->contact_count();
+  for (const bool reduce : {false, true}) {  // both friction rules (cohesive bed: CED 5e4, walls 2.5e4)
+    SCOPED_TRACE(reduce ? "tangential_reduce" : "default rule");
+    auto cpu = packing(-1.0, true, true, false, reduce), gs = packing(-1.0, true, true, false, reduce);
+    auto eng = gpu_engine(*gs);
+    eng->upload();
+    std::size_t contacts = 0;
+    for (int k = 0; k < 300; ++k) {
+      cpu->step();
+      eng->step();
+      contacts += cpu->contact_count();
+    }
+    eng->download(true);
+    const double gap = worst_position_gap(*cpu, *gs);
+    std::printf("[measured] dense packing: %zu bodies, %zu contact-steps, %llu device builds, worst |dx| = %.3g m, "
+                "KE cpu %.9g gpu %.9g, contacts cpu %zu gpu %zu\n",
+                cpu->bodies().size(), contacts, static_cast<unsigned long long>(eng->list_builds()), gap,
+                cpu->kinetic_energy_j(), gs->kinetic_energy_j(), cpu->contact_count(), gs->contact_count());
+    EXPECT_GT(contacts, 1000u);
+    EXPECT_GT(eng->list_builds(), 1u);
+    EXPECT_LT(gap, 1e-9);
+    EXPECT_NEAR(gs->kinetic_energy_j(), cpu->kinetic_energy_j(), 1e-6 * cpu->kinetic_energy_j());
+    EXPECT_EQ(gs->contact_count(), cpu->contact_count());
   }
-  eng->download(true);
-  const double gap = worst_position_gap(*cpu, *gs);
-  std::printf("[measured] dense packing: %zu bodies, %zu contact-steps, %llu device builds, worst |dx| = %.3g m, "
-              "KE cpu %.9g gpu %.9g, contacts cpu %zu gpu %zu\n",
-              cpu->bodies().size(), contacts, static_cast<unsigned long long>(eng->list_builds()), gap,
-              cpu->kinetic_energy_j(), gs->kinetic_energy_j(), cpu->contact_count(), gs->contact_count());
-  EXPECT_GT(contacts, 1000u);
-  EXPECT_GT(eng->list_builds(), 1u);
-  EXPECT_LT(gap, 1e-9);
-  EXPECT_NEAR(gs->kinetic_energy_j(), cpu->kinetic_energy_j(), 1e-6 * cpu->kinetic_energy_j());
-  EXPECT_EQ(gs->contact_count(), cpu->contact_count());
 }
 
 // In a scene of single-sphere bodies the body kernels place each sphere at its body's centre
