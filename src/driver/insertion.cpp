@@ -73,20 +73,29 @@ void Runner::insert() {
     insertion_.rng = rng;
   }
   current_phase_ = "insert";
+  bool fell = false;  // a fall came before the next wave: its last step's outputs wait for the wave
   for (;;) {
     if (falling) {
+      // A wave always follows a fall, at the time of its last step: that step's outputs are
+      // written after the wave (below, or by finish_insertion), so that a time has one sample and
+      // one snapshot, of the state with the wave's particles.
       while (insertion_.fall_step < fall_steps) {
         if (dev_) {  // (runs of steps, as the phases: graphs, queued checks, the timed choice)
-          const auto a = advance_on_device(fall_steps - insertion_.fall_step,
-                                           [this](const gpu::DeviceEngine::Advanced&) { ++insertion_.fall_step; });
+          const auto a = advance_on_device(fall_steps - insertion_.fall_step, [&](const gpu::DeviceEngine::Advanced&) {
+            ++insertion_.fall_step;
+            defer_outputs_ = insertion_.fall_step == fall_steps;
+          });
           if (a.steps == 0) throw Error("internal: the GPU engine made no step of an insertion fall");
           continue;
         }
         advance();
         ++insertion_.fall_step;
+        defer_outputs_ = insertion_.fall_step == fall_steps;
         after_step();
       }
+      defer_outputs_ = false;
       falling = false;
+      fell = true;
     }
     if (insertion_.placed >= todo.size()) break;
     const std::size_t before = insertion_.placed;
@@ -116,6 +125,7 @@ void Runner::insert() {
         device_current_ = true;
         synced_step_ = ~std::uint64_t{0};
       }
+      if (fell) outputs_due();  // (the last wave's: finish_insertion)
       insertion_.fall_step = 0;
       falling = true;
     }
@@ -136,8 +146,9 @@ void Runner::finish_insertion() {
   }
   log_ << "bodies: " << sim_.bodies().size() << ", spheres: " << sim_.spheres().size() << "\n";
   total_steps_estimate_ += sim_.step_count();
-  sample();
-  snapshot();
+  sample();  // (each once per step: the outputs of the last fall's last step wait for this)
+  if (last_snapshot_step_ != sim_.step_count()) snapshot();
+  outputs_due();  // a frame or speed image due at this step
   if (checkpoint_every_) checkpoint();  // resumable from the end of insertion on
 }
 

@@ -186,16 +186,21 @@ void Runner::report_progress(const std::string& label) {
 void Runner::after_step() {
   if (sim_.drum_rotating()) rotation_time_s_ += sim_.dt_s();
   const std::uint64_t n = sim_.step_count();
-  if (n % sample_every_ == 0) sample();
-  if (snapshot_every_ && n % snapshot_every_ == 0) snapshot();
-  if (frame_every_ && n % frame_every_ == 0) frame();
-  // (image k after step (k + 1) n, as the frames)
-  if (speed_image_every_ && n % speed_image_every_ == 0) speed_image(n / speed_image_every_ - 1);
+  if (!defer_outputs_) outputs_due();
   if (checkpoint_every_ && n % checkpoint_every_ == 0) checkpoint();
   if ((n & 63) == 0) report_progress(current_phase_);
   if (abort_at_step() && n == abort_at_step()) std::_Exit(137);
   if (signal_at_step() && n == signal_at_step()) std::raise(SIGTERM);
   if (g_stop_signal && !defer_stop_) stop_on_signal();
+}
+
+void Runner::outputs_due() {
+  const std::uint64_t n = sim_.step_count();
+  if (n % sample_every_ == 0) sample();
+  if (snapshot_every_ && n % snapshot_every_ == 0 && last_snapshot_step_ != n) snapshot();
+  if (frame_every_ && n % frame_every_ == 0) frame();
+  // (image k after step (k + 1) n, as the frames)
+  if (speed_image_every_ && n % speed_image_every_ == 0) speed_image(n / speed_image_every_ - 1);
 }
 
 void Runner::stop_on_signal() {

@@ -69,6 +69,7 @@ void Runner::sample() {
   series_->write(row);
   if (trace_) {
     char buf[512];
+    const double time = row.time_s;  // (the series' time, whole steps times dt)
     // Rows in id order; ids are stable and have gaps once a sink removed bodies.
     std::vector<std::pair<std::uint32_t, std::uint32_t>> by_id(b.size());
     for (std::size_t i = 0; i < b.size(); ++i) by_id[i] = {b.id[i], static_cast<std::uint32_t>(i)};
@@ -76,7 +77,7 @@ void Runner::sample() {
     for (const auto& [id32, i32] : by_id) {
       const std::size_t id = id32, i = i32;
       const Vec3 &x = b.position_m[i], &v = b.velocity_m_s[i], &w = b.angular_velocity_rad_s[i];
-      std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", sim_.time_s(), id, x.x,
+      std::snprintf(buf, sizeof buf, "%.9g,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", time, id, x.x,
                     x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z);
       *trace_ << buf;
     }
@@ -114,7 +115,8 @@ void Runner::snapshot() {
   c.scalars = {{"speed", speed}, {"radius", s.radius_m}};
   c.ints = {{"body_id", body}, {"material", material}};
   output::write_vtu(opt_.out_dir + "/snapshots/" + name, c);
-  pvd_->add(sim_.time_s(), std::string("snapshots/") + name);
+  // (the time as the series gives it: whole steps times dt, without the rounding of the summed dt)
+  pvd_->add(config::whole_steps_time(sim_.time_s(), sim_.dt_s()), std::string("snapshots/") + name);
   // the drum seen from its end coloured by speed, numbered as the snapshot (unless it has a cadence of its own)
   if (speed_images_ && !speed_image_every_) speed_image(snapshot_index_);
 
@@ -136,7 +138,7 @@ void Runner::snapshot() {
   cb.quats = {{"orientation", q}};
   // (in a folder of their own: snapshots/ holds one file per snapshot, one point per sphere)
   output::write_vtu(opt_.out_dir + "/bodies/" + name, cb);
-  pvd_bodies_->add(sim_.time_s(), std::string("bodies/") + name);
+  pvd_bodies_->add(config::whole_steps_time(sim_.time_s(), sim_.dt_s()), std::string("bodies/") + name);
   ++snapshot_index_;
 }
 

@@ -74,6 +74,7 @@ class Runner {
   void checkpoint();
   void resume();
   void after_step();
+  void outputs_due();  // the sample, snapshot, frame and speed image due at this step
   void sample();
   void snapshot();
   double revolution() const;
@@ -148,6 +149,9 @@ class Runner {
   bool synced_history_ = false;
   bool device_current_ = false;  // the device holds the run's state (host may lag behind)
   bool last_settled_ = false;
+  // The last step of an insertion fall: its outputs wait for the wave made at the same time, so
+  // that one sample and one snapshot show that time's state (with the wave's particles).
+  bool defer_outputs_ = false;
   bool defer_stop_ = false;  // after_step of a step the device has already gone past: a signal waits for the run's last step
   checkpoint::InsertionProgress insertion_;  // while inserting: what a checkpoint must carry
 };

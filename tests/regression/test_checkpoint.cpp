@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "test_util.hpp"
@@ -162,4 +163,34 @@ TEST(CheckpointRestart, CheckReportsThePhaseStepsTheRunMakes) {
   }
   EXPECT_GT(rows, 10);
   EXPECT_GT(turning, 3);
+}
+
+// The times of snapshots.pvd and bodies.pvd are whole steps times dt, as the series gives them:
+// before, they were the summed clock, which after some 49,000 steps of 1.5e-5 s printed
+// 0.731774999999 where the series said 0.731775. 50 beads, half a revolution (about 70,000 steps).
+TEST(CheckpointRestart, SnapshotTimesAreWholeStepsTimesDt) {
+  std::string text = slurp(kCase);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"count = 400", "count = 50"},
+                                 {"revolutions = 0.06", "revolutions = 0.5"},
+                                 {"snapshot_every_s = 0.02", "snapshot_every_s = 0.0133"}}) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  const std::string case_file = (fs::current_path() / "pvd_times.toml").string();
+  std::ofstream(case_file) << text;
+  const std::string d = fresh_dir("pvd_times");
+  const auto r = run_command(biodem_exe() + " run " + case_file + " --out " + d + " --threads 1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const double dt = 1.5e-5;
+  ASSERT_NE(text.find("dt_s = 1.5e-5"), std::string::npos);
+  for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"}) {
+    const std::string x = slurp(d + pvd);
+    std::size_t n = 0;
+    for (auto at = x.find("timestep=\""); at != std::string::npos; at = x.find("timestep=\"", at + 1), ++n) {
+      const double t = std::stod(x.substr(at + 10));
+      EXPECT_LE(std::abs(t - std::round(t / dt) * dt), 1e-15) << pvd << " entry " << n << ": " << x.substr(at, 30);
+    }
+    EXPECT_GE(n, 70u) << pvd;
+  }
 }

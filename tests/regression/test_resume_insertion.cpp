@@ -15,7 +15,9 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "test_util.hpp"
@@ -139,6 +141,48 @@ TEST(ResumeInsertion, DrumKilledDuringInsertionResumesBitForBit) {
   kill_and_resume(kWaves, "ins_cpu", "cpu",
                   {{false, 450, "insert"}, {true, 601, "insert"}, {true, 1500, "insert"}, {false, 1200, "insert"},
                    {false, 1800, "insert"}});
+}
+
+// The waves on the output cadence: samples every 200 steps and snapshots every 600, so that each
+// wave (steps 600, 1200, 1800) is made at the time of a fall's last step that is due a sample and
+// a snapshot. That step's outputs wait for the wave: one row and one snapshot per time, of the
+// state with the wave's beads (before, the step's outputs showed the state before the wave, and
+// the end of insertion wrote a second snapshot of the same time, 1000 beads against 967). Killed
+// and resumed on those steps, bit for bit.
+TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
+  std::string text = slurp(kWaves);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"sample_hz = 500.0", "sample_hz = 333.3333333333"},
+                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009"}}) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  const std::string case_file = (fs::current_path() / "ins_cadence.toml").string();
+  std::ofstream(case_file) << text;
+  const std::string d = fresh_dir("ins_cadence_once");
+  const auto r = run_command(run_cmd(case_file, d, "cpu"));
+  ASSERT_EQ(r.status, 0) << r.output;
+  ASSERT_NE(slurp(d + "/run.log").find("sampling: every 200 steps"), std::string::npos);
+  // Times strictly increasing in the series and in each collection.
+  const auto series = read_csv(d + "/series.csv");
+  const auto t = to_numbers(series.at("time_s"));
+  for (std::size_t i = 1; i < t.size(); ++i) EXPECT_LT(t[i - 1], t[i]) << "series row " << i;
+  for (const char* pvd : {"/snapshots.pvd", "/bodies.pvd"}) {
+    const std::string x = slurp(d + pvd);
+    std::vector<double> ts;
+    for (auto at = x.find("timestep=\""); at != std::string::npos; at = x.find("timestep=\"", at + 1))
+      ts.push_back(std::stod(x.substr(at + 10)));
+    ASSERT_GE(ts.size(), 4u) << pvd;
+    for (std::size_t i = 1; i < ts.size(); ++i) EXPECT_LT(ts[i - 1], ts[i]) << pvd << " entry " << i;
+  }
+  // The trace at the last wave's time (step 1800, t = 0.027 s) holds every bead.
+  std::size_t at_last_wave = 0;
+  std::istringstream trace(slurp(d + "/trace.csv"));
+  std::string line;
+  while (std::getline(trace, line))
+    if (line.rfind("0.027,", 0) == 0) ++at_last_wave;
+  EXPECT_EQ(at_last_wave, 1000u);
+  kill_and_resume(case_file, "ins_cadence", "cpu", {{false, 1200, "insert"}, {true, 1801, "settle"}, {false, 1800, "insert"}});
 }
 
 // The GPU engine's kernels on CPU threads: the device state is uploaded again after a resume
