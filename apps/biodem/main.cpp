@@ -2,6 +2,7 @@
 // every command, and `biodem` (BIODEM_FORWARDS) without the libraries of video and calibrate,
 // which it hands to biodem-full (forward.cpp).
 #include <CLI/CLI.hpp>
+#include <csignal>
 #include <cstdlib>
 #include <exception>
 #include <iostream>
@@ -14,6 +15,10 @@
 #include "output/build_info.hpp"
 
 int main(int argc, char** argv) {
+  // A write past a file size limit (ulimit -f) fails with EFBIG, which the writers report in one
+  // line naming the file, instead of the default SIGXFSZ ending the process without a word or a
+  // checkpoint. (Kept across the exec of biodem-full and by a campaign's test runs.)
+  std::signal(SIGXFSZ, SIG_IGN);
 #if BIODEM_FORWARDS
   if (argc > 1 && biodem::cli::forwarded(argv[1])) return biodem::cli::forward(argv);
 #endif

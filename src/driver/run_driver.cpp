@@ -203,6 +203,24 @@ void Runner::outputs_due() {
   if (speed_image_every_ && n % speed_image_every_ == 0) speed_image(n / speed_image_every_ - 1);
 }
 
+// What the run writes in DIR must be files (and its snapshot folders folders): a folder named
+// series.csv took the series into series.csv/series.csv, and one named trace.csv stopped the run
+// with an "internal error" from the file system.
+void Runner::check_output_names() const {
+  std::error_code ec;
+  for (const char* f : {"series.csv", "trace.csv", "run.log", "responses.csv", "snapshots.pvd", "bodies.pvd"}) {
+    const fs::path p = fs::path(opt_.out_dir) / f;
+    if (fs::exists(p, ec) && !fs::is_regular_file(p, ec))
+      throw Error("--out " + opt_.out_dir + ": " + p.string() + " is not a file (a folder?); remove it or choose another --out");
+  }
+  if (opt_.resume)
+    for (const char* d : {"snapshots", "bodies"}) {
+      const fs::path p = fs::path(opt_.out_dir) / d;
+      if (fs::exists(p, ec) && !fs::is_directory(p, ec))
+        throw Error("--out " + opt_.out_dir + ": " + p.string() + " is not a folder; remove it or choose another --out");
+    }
+}
+
 void Runner::stop_on_signal() {
   const int sig = g_stop_signal;
   const char* name = sig == SIGINT ? "SIGINT" : (sig == SIGTERM ? "SIGTERM" : "a signal");
@@ -222,9 +240,11 @@ RunSummary Runner::run() {
     if (!fs::exists(opt_.out_dir + "/checkpoint.bin"))
       throw Error("--resume: " + opt_.out_dir + "/checkpoint.bin does not exist (nothing to resume)");
     lock_ = output::lock_output_dir(opt_.out_dir);
+    check_output_names();
   } else {
     output::prepare_output_dir(opt_.out_dir);
     lock_ = output::lock_output_dir(opt_.out_dir);
+    check_output_names();
     // A fresh run replaces the outputs of an earlier run in the same folder: an old checkpoint must
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
     if (std::error_code ec; fs::remove(opt_.out_dir + "/checkpoint.bin", ec), ec)

@@ -74,7 +74,8 @@ class Runner {
   void checkpoint();
   void resume();
   void after_step();
-  void outputs_due();  // the sample, snapshot, frame and speed image due at this step
+  void outputs_due();
+  void check_output_names() const;  // the files the run writes in DIR are not folders  // the sample, snapshot, frame and speed image due at this step
   void sample();
   void snapshot();
   double revolution() const;

@@ -133,20 +133,30 @@ TEST(Signals, RunIntoAFolderInUseIsRefused) {
 // with one line: before, the run went on and said "done" with the trace cut off mid-row.
 TEST(Signals, TraceThatCannotBeWrittenStopsTheRun) {
   const std::string d = fresh_dir("sig_fsize");
-  auto r = run_command("bash -c \"trap '' XFSZ; ulimit -f 300; " + biodem_exe() + " run " + kCase + " --out " + d +
-                       " --threads 1\"");
+  // (SIGXFSZ at its default: biodem ignores it itself; before, the run died without a word)
+  auto r = run_command("bash -c \"ulimit -f 300; " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1\"");
   EXPECT_EQ(r.status, 2) << r.output;
   EXPECT_NE(r.output.find("trace.csv: write failed"), std::string::npos) << r.output;
 }
 
-// run.log that cannot be written (here a folder of that name) stops the run with one line before
-// any step, instead of a run whose log stays empty.
+// An output of the run that cannot be a file (here a folder named run.log, series.csv or
+// trace.csv) stops the run with one line before any step, instead of a run whose log stays
+// empty, a series written inside the folder, or an "internal error".
 TEST(Signals, RunLogThatCannotBeWrittenStopsTheRun) {
   const std::string d = fresh_dir("sig_runlog");
   fs::create_directories(d + "/run.log");
   auto r = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
   EXPECT_EQ(r.status, 2) << r.output;
-  EXPECT_NE(r.output.find("run.log: cannot be written"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("run.log is not a file (a folder?)"), std::string::npos) << r.output;
+  // Likewise the other outputs (before: a folder named series.csv took the series inside it, one
+  // named trace.csv gave an "internal error").
+  for (const char* f : {"series.csv", "trace.csv/x"}) {
+    const std::string o = fresh_dir(std::string("sig_outname_") + (f[0] == 's' ? "series" : "trace"));
+    fs::create_directories(o + "/" + f);
+    r = run_command(biodem_exe() + " run " + kCase + " --out " + o + " --threads 1");
+    EXPECT_EQ(r.status, 2) << f << ": " << r.output;
+    EXPECT_NE(r.output.find("is not a file (a folder?)"), std::string::npos) << f << ": " << r.output;
+  }
   EXPECT_FALSE(fs::exists(d + "/series.csv")) << "stopped before any output";
 }
 
