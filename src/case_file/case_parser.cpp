@@ -67,6 +67,7 @@ LoadedCase CaseParser::parse() {
   parse_phases();
   parse_output();
   check_something_to_simulate();
+  check_output_cadence();
   check_unused();
   check_particle_densities();
   check_pairs_complete();

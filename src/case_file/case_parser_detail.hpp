@@ -112,6 +112,7 @@ class CaseParser {
   void resolve_bulk_test();
   // cross_checks.cpp
   void check_something_to_simulate() const;
+  void check_output_cadence();
   void check_unused();  // (and the outputs a drum case leaves out)
   std::set<std::size_t> particle_materials() const;
   void check_particle_densities() const;

@@ -46,6 +46,43 @@ void CaseParser::check_something_to_simulate() const {
   }
   if (cfg_.output.speed_images.value_or(false) && !cfg_.drum)
     fail("[output].speed_images: the speed images are views of the drum from its end, and this case has no [drum]");
+  // SPEC 5: the drum's axis is z and y is up; alpha, the free surface, the frames and the speed
+  // images are measured so. Gravity along the axis, along x or none would give angles of another
+  // frame without a word.
+  if (cfg_.drum) {
+    const auto& g = cfg_.run.gravity_m_s2;
+    if (!(g[0] == 0.0 && g[2] == 0.0 && g[1] < 0.0))
+      fail("[run].gravity_m_s2 = [" + num(g[0]) + ", " + num(g[1]) + ", " + num(g[2]) +
+           "]: a drum case has y up and its axis along z (SPEC 5); gravity must be [0, -g, 0]");
+  }
+}
+
+// The outputs are written after whole steps: every max(1, round(interval / dt)) steps. An
+// interval under half a step cannot be honoured (sample_hz = 1e6 at dt = 1e-5 s sampled at
+// 1e5 Hz, snapshot_every_s = 1e-9 wrote a snapshot at every step); one the rounding moves by
+// more than 1 % is said, with the interval the run will use.
+void CaseParser::check_output_cadence() {
+  const double dt = cfg_.run.dt_s;
+  const auto& o = cfg_.output;
+  const std::pair<const char*, std::optional<double>> intervals[] = {
+      {"sample_hz", 1.0 / o.sample_hz},
+      {"snapshot_every_s", o.snapshot_every_s},
+      {"checkpoint_every_s", o.checkpoint_every_s},
+      {"frame_every_s", o.frame_every_s},
+      {"speed_image_every_s", o.speed_image_every_s}};
+  for (const auto& [key, interval] : intervals) {
+    if (!interval) continue;
+    const bool hz = std::string_view(key) == "sample_hz";
+    const std::string given = std::string("[output].") + key + " = " + num(hz ? o.sample_hz : *interval);
+    if (*interval < 0.5 * dt)
+      fail(given + ": " + (hz ? "a sample period" : "an interval") + " of " + num(*interval) +
+           " s, under half the time step dt = " + num(dt) + " s (outputs are written after whole steps)");
+    const double steps = std::max(1.0, std::round(*interval / dt)), used = steps * dt;
+    if (std::abs(used - *interval) > 0.01 * *interval)
+      warn(given + ": outputs are written after whole steps, so every " + num(steps) + " steps of dt = " + num(dt) +
+           " s: " + (hz ? num(1.0 / used) + " Hz" : num(used) + " s") + " (" +
+           num(100.0 * (used - *interval) / *interval, 2) + " % off)");
+  }
 }
 
 void CaseParser::check_unused() {

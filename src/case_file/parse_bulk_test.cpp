@@ -44,6 +44,9 @@ void CaseParser::parse_bulk_test() {
     b.rest_fraction = r.real_or("rest_fraction", b.rest_fraction, kPositive);
     b.rest_hold_s = r.real_or("rest_hold_s", b.rest_hold_s, kPositive);
     b.max_fill_s = r.real_or("max_fill_s", b.max_fill_s, kPositive);
+    // (bulk density has no rest phase after its fill: a max_rest_s there would do nothing)
+    if (!with_rest && r.has("max_rest_s"))
+      r.fail("max_rest_s", "[bulk_density] has no rest phase after its fill (its cap is max_fill_s)");
     b.max_rest_s = r.real_or("max_rest_s", b.max_rest_s, kPositive);
     // The rest criterion holds for rest_hold_s within each phase's cap, counted in steps as the
     // run counts them: a longer hold is never met.
@@ -121,12 +124,9 @@ void CaseParser::parse_bulk_test() {
     b.fit_from_fraction = r.real_or("fit_from_fraction", 0.2, kUnitOpen);
     b.fit_to_fraction = r.real_or("fit_to_fraction", 0.8, kUnitOpen);
     if (!(b.fit_to_fraction > b.fit_from_fraction)) r.fail("fit_to_fraction", "must exceed fit_from_fraction");
-    if (r.node("sectors")) {
-      const double k = r.real_or("sectors", 8.0, kPositive);
-      if (!(k >= 4.0 && k <= 8.0 && k == std::floor(k)))
-        r.fail("sectors", "must be a whole number from 4 to 8 (vertical half-planes of the surface fit, SPEC 7)");
-      b.sectors = static_cast<std::size_t>(k);
-    }
+    // (an integer key: 6.0 is refused, as for every integer key; 4 to 8 vertical half-planes of
+    // the surface fit, SPEC 7)
+    if (const auto k = r.opt_uint("sectors", 4, 8)) b.sectors = static_cast<std::size_t>(*k);
     read_rest(r, true);
     config::Wall base = wall(config::WallKind::Disc, b.base_material, {0, 0, 0}, {0, 1, 0});
     base.radius_m = 0.5 * b.base_diameter_m;

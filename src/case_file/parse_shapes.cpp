@@ -50,6 +50,17 @@ void CaseParser::parse_shapes() {
         s.d50_m = r.real("d50_m", kPositive);
         s.aspect_ratio = r.real("aspect_ratio", kUnitOpenClosed);
         s.overlap_factor = r.real_or("overlap_factor", 0.2, Range{0.0, 1.0, true, false});
+        {
+          // SPEC 3's n_spb, checked before the clump is built (its mass properties cost n^2): a
+          // tiny aspect ratio or an overlap factor near 1 gave millions of spheres per needle
+          // (hours before any other check), or an int overflow read as 1 sphere.
+          constexpr double kMostSpheresPerNeedle = 1000.0;
+          const double n = std::round((1.0 / s.aspect_ratio - s.overlap_factor) / (1.0 - s.overlap_factor));
+          if (!(n <= kMostSpheresPerNeedle))
+            r.fail("aspect_ratio", num(s.aspect_ratio) + " with overlap_factor " + num(s.overlap_factor) +
+                                       " gives n_spb = " + num(n) + " spheres per needle (SPEC 3); at most " +
+                                       num(kMostSpheresPerNeedle));
+        }
         if (s.overlap_factor > 0.5)
           warn(r.where("overlap_factor") + " = " + num(s.overlap_factor) +
                ": above 0.5 more than two spheres overlap at a point; volume and inertia come from a numerical "

@@ -129,6 +129,7 @@ void Runner::insert() {
       insertion_.fall_step = 0;
       falling = true;
     }
+    last_wave_after_fall_ = fell;
   }
   insertion_ = checkpoint::InsertionProgress{};  // done: later checkpoints carry no insertion state
 }
@@ -148,7 +149,8 @@ void Runner::finish_insertion() {
   total_steps_estimate_ += sim_.step_count();
   sample();  // (each once per step: the outputs of the last fall's last step wait for this)
   if (last_snapshot_step_ != sim_.step_count()) snapshot();
-  outputs_due();  // a frame or speed image due at this step
+  if (last_wave_after_fall_) outputs_due();  // a frame or speed image due at the fall's last step
+  last_wave_after_fall_ = false;
   if (checkpoint_every_) checkpoint();  // resumable from the end of insertion on
 }
 

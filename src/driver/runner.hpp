@@ -153,6 +153,7 @@ class Runner {
   // The last step of an insertion fall: its outputs wait for the wave made at the same time, so
   // that one sample and one snapshot show that time's state (with the wave's particles).
   bool defer_outputs_ = false;
+  bool last_wave_after_fall_ = false;  // the last wave followed a fall: finish_insertion writes its outputs
   bool defer_stop_ = false;  // after_step of a step the device has already gone past: a signal waits for the run's last step
   checkpoint::InsertionProgress insertion_;  // while inserting: what a checkpoint must carry
 };

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "contact/time_step.hpp"
@@ -621,7 +622,8 @@ TEST(CaseParser, SpeedImageScaleIsTheLargerOfTwiceTheRimSpeedAndTheFallOverOneDi
   EXPECT_NEAR(scale(kSpecExample), std::sqrt(9.81 * 1e-3), 1e-12);  // 2 x rim = 5.2 mm/s at 0.5 rpm
   EXPECT_NEAR(scale(edit(kSpecExample, "rpm = 0.5", "rpm = 60.0")), 2.0 * 60.0 * 2.0 * M_PI / 60.0 * 0.05, 1e-12);
   EXPECT_NEAR(scale(edit(kSpecExample, "rpm = 0.5", "rpm = -60.0")), 2.0 * 2.0 * M_PI * 0.05, 1e-12);
-  EXPECT_NEAR(scale(edit(kSpecExample, "gravity_m_s2 = [0.0, -9.81, 0.0]", "gravity_m_s2 = [0.0, 0.0, 0.0]")),
+  // (weak gravity: the fall over one diameter, 1 mm/s, under twice the rim speed)
+  EXPECT_NEAR(scale(edit(kSpecExample, "gravity_m_s2 = [0.0, -9.81, 0.0]", "gravity_m_s2 = [0.0, -0.001, 0.0]")),
               2.0 * 0.5 * 2.0 * M_PI / 60.0 * 0.05, 1e-12);
   EXPECT_NEAR(scale(edit(kSpecExample, "trace = false", "trace = false\nspeed_image_max_m_s = 0.3")), 0.3, 0.0);
   EXPECT_EQ(case_file::speed_image_scale_m_s(case_file::parse_case(kScene, "c").config), 0.0);  // no drum
@@ -831,4 +833,48 @@ TEST(CaseParser, DeviceAndWallRollingReference) {
                      "[contact].wall_rolling_reference", "\"lab\"");
   EXPECT_ERROR_NAMES(edit(kSpecExample, "[run]", "[contact]\nrolling_reference = \"lab\"\n\n[run]"),
                      "[contact].rolling_reference");
+}
+
+// Inputs the engine cannot honour, each a one-line error naming the key (before, each was
+// accepted without a word): gravity along the drum's axis or along x (alpha is measured with y
+// up: 90 degrees off, or meaningless), a sample period or an interval under half a step (written
+// at every step instead), an aspect ratio giving millions of spheres per needle (hours of clump
+// building, or an int overflow read as one sphere), a whole-number key written as a real, a rest
+// cap in the bulk test that has no rest phase. An interval the step rounding moves by over 1 % is
+// warned about with the one the run uses.
+TEST(CaseParser, InputsTheEngineCannotHonourAreOneLineErrors) {
+  const std::string g = "gravity_m_s2 = [0.0, -9.81, 0.0]";
+  EXPECT_ERROR_NAMES(edit(kSpecExample, g, "gravity_m_s2 = [0.0, 0.0, -9.81]"), "[run].gravity_m_s2 = [0, 0, -9.81]",
+                     "gravity must be [0, -g, 0]");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, g, "gravity_m_s2 = [-9.81, 0.0, 0.0]"), "[run].gravity_m_s2");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, g, "gravity_m_s2 = [0.0, 0.0, 0.0]"), "[run].gravity_m_s2");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "sample_hz = 50.0", "sample_hz = 1e6"), "[output].sample_hz = 1e+06",
+                     "under half the time step dt = 1.5e-05 s");
+  EXPECT_ERROR_NAMES(edit(kSpecExample, "snapshot_every_s = 1.0", "snapshot_every_s = 1e-9"),
+                     "[output].snapshot_every_s = 1e-09");
+  const auto rounded = case_file::parse_case(edit(kSpecExample, "sample_hz = 50.0", "sample_hz = 40000.0"), "case.toml");
+  std::string all;
+  for (const auto& w : rounded.warnings) all += w + "\n";
+  EXPECT_NE(all.find("[output].sample_hz = 40000: outputs are written after whole steps, so every 2 steps"),
+            std::string::npos)
+      << all;
+  EXPECT_NE(all.find("33333.3 Hz"), std::string::npos) << all;
+  EXPECT_EQ(case_file::parse_case(kSpecExample, "case.toml").warnings.size(), 1u);  // (the time step's only)
+
+  std::string needle = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3", "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 5.8207636e-10");
+  EXPECT_ERROR_NAMES(needle, ".aspect_ratio", "spheres per needle (SPEC 3); at most 1000");
+  needle = edit(kScene, "kind = \"sphere\"\ndiameter_m = 1e-3",
+                "kind = \"needle\"\nd50_m = 746e-6\naspect_ratio = 0.5\noverlap_factor = 0.9999");
+  EXPECT_ERROR_NAMES(needle, ".aspect_ratio", "at most 1000");
+
+  auto file = [](const char* name) {
+    std::ifstream in(std::string(BIODEM_SOURCE_DIR) + "/tests/cases/" + name);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string heap = file("heap_tiny.toml"), bulk = file("bulk_density_tiny.toml");
+  ASSERT_FALSE(heap.empty());
+  EXPECT_ERROR_NAMES(edit(heap, "\n[heap]\n", "\n[heap]\nsectors = 6.0\n"), "[heap].sectors", "integer");
+  EXPECT_EQ(case_file::parse_case(edit(heap, "\n[heap]\n", "\n[heap]\nsectors = 6\n"), "case.toml").config.bulk_test->sectors, 6u);
+  EXPECT_ERROR_NAMES(edit(bulk, "\n[bulk_density]\n", "\n[bulk_density]\nmax_rest_s = 0.001\n"), "[bulk_density].max_rest_s",
+                     "no rest phase");
 }
