@@ -164,6 +164,13 @@ std::string describe_case(const config::CaseConfig& c) {
     }
     os << "\n    volume " << num(t.volume_m3) << " m^3, d_eq " << num(t.equivalent_diameter_m())
        << " m, bounding diameter " << num(2.0 * t.bounding_radius_m) << " m\n";
+    // The particle as measured (SPEC 8's table), before coarse graining: lengths / cg, volume / cg^3.
+    if (cg != 1.0) {
+      os << "    before coarse graining: ";
+      if (sh.kind == config::ShapeKind::Needle)
+        os << "clump length " << num(shapes::needle_geometry(sh.d50_m, sh.aspect_ratio, sh.overlap_factor).length_m) << " m, ";
+      os << "volume " << num(t.volume_m3 / (cg * cg * cg)) << " m^3, d_eq " << num(t.equivalent_diameter_m() / cg) << " m\n";
+    }
     for (const auto& [m, s2] : types) {
       if (s2 != s) continue;
       const auto& mat = c.materials[m];

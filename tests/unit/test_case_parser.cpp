@@ -878,3 +878,17 @@ TEST(CaseParser, InputsTheEngineCannotHonourAreOneLineErrors) {
   EXPECT_ERROR_NAMES(edit(bulk, "\n[bulk_density]\n", "\n[bulk_density]\nmax_rest_s = 0.001\n"), "[bulk_density].max_rest_s",
                      "no rest phase");
 }
+
+// `check` (and run.log) give a coarse-grained particle also as measured: lengths / s, volume /
+// s^3 (SPEC 8's table gives the particles before coarse graining). The 1 mm bead at x4: 4 mm in
+// the engine, 1 mm and pi/6 mm^3 before.
+TEST(CaseParser, ReportGivesACoarseGrainedParticleAlsoAsMeasured) {
+  const std::string at4 = output::describe_case(
+      case_file::parse_case(edit(edit(kSpecExample, "coarse_grain = 1.0", "coarse_grain = 4.0"), "count = 19791", "count = 200"),
+                            "case.toml")
+          .config);
+  EXPECT_NE(at4.find("sphere, diameter 0.004 m"), std::string::npos) << at4;
+  EXPECT_NE(at4.find("before coarse graining: volume 5.236e-10 m^3, d_eq 0.001 m"), std::string::npos) << at4;
+  const std::string at1 = output::describe_case(case_file::parse_case(kSpecExample, "case.toml").config);
+  EXPECT_EQ(at1.find("before coarse graining"), std::string::npos) << at1;
+}
