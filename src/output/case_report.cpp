@@ -164,13 +164,6 @@ std::string describe_case(const config::CaseConfig& c) {
     }
     os << "\n    volume " << num(t.volume_m3) << " m^3, d_eq " << num(t.equivalent_diameter_m())
        << " m, bounding diameter " << num(2.0 * t.bounding_radius_m) << " m\n";
-    // The particle as measured (SPEC 8's table), before coarse graining: lengths / cg, volume / cg^3.
-    if (cg != 1.0) {
-      os << "    before coarse graining: ";
-      if (sh.kind == config::ShapeKind::Needle)
-        os << "clump length " << num(shapes::needle_geometry(sh.d50_m, sh.aspect_ratio, sh.overlap_factor).length_m) << " m, ";
-      os << "volume " << num(t.volume_m3 / (cg * cg * cg)) << " m^3, d_eq " << num(t.equivalent_diameter_m() / cg) << " m\n";
-    }
     for (const auto& [m, s2] : types) {
       if (s2 != s) continue;
       const auto& mat = c.materials[m];
@@ -179,6 +172,13 @@ std::string describe_case(const config::CaseConfig& c) {
       const Vec3 i = rho * t.principal_inertia_per_density_m5;
       os << "    as " << mat.name << ": mass " << num(rho * t.volume_m3) << " kg, principal moments of inertia ["
          << num(i.x) << ", " << num(i.y) << ", " << num(i.z) << "] kg m^2\n";
+    }
+    // The particle as measured (SPEC 8's table), before coarse graining: lengths / cg, volume / cg^3.
+    if (cg != 1.0) {
+      os << "    before coarse graining: ";
+      if (sh.kind == config::ShapeKind::Needle)
+        os << "clump length " << num(shapes::needle_geometry(sh.d50_m, sh.aspect_ratio, sh.overlap_factor).length_m) << " m, ";
+      os << "volume " << num(t.volume_m3 / (cg * cg * cg)) << " m^3, d_eq " << num(t.equivalent_diameter_m() / cg) << " m\n";
     }
   }
 
