@@ -5,7 +5,7 @@
 # run (with MUTATION_TIERS="unit physics regression", the regression tier too). A mutant is
 # KILLED when a test fails or crashes, SURVIVED when every test passes; a survivor is a missing
 # test. Not part of CI (a header mutant costs about 2.5 minutes to rebuild on 2 cores); see
-# docs/architecture.md, "Mutation check".
+# README.md, "Reliability" ("Tests that fail on a wrong law").
 #
 #   bash scripts/mutation_check.sh                 every mutant
 #   bash scripts/mutation_check.sh 01 24c 29       these ones
