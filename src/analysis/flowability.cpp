@@ -70,8 +70,8 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
     res.rpm = rpm_from_revolution(s);
     res.rpm_from_series = true;
   }
-  if (opt.events.min_drop_deg && !(*opt.events.min_drop_deg > 0.0))
-    throw Error("--min-drop-deg must be > 0");
+  if (opt.events.min_drop_deg && !(*opt.events.min_drop_deg > 0.0 && std::isfinite(*opt.events.min_drop_deg)))
+    throw Error("--min-drop-deg must be > 0 and finite");
   if (!(opt.events.rebound_fraction >= 0.0) || !std::isfinite(opt.events.rebound_fraction))
     throw Error("--rebound-fraction must be >= 0");
   if (opt.skip_s && !(*opt.skip_s >= 0.0)) throw Error("--skip-s must be >= 0");
@@ -134,7 +134,15 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
                            " deg); UAS, avalanche size and f are empty");
   else if (res.detection.events.size() == 1)
     res.warnings.push_back("only one event found: f needs two");
-  if (res.detection.threshold_from_noise && res.detection.threshold_deg > 1.0)
+  // A short series: the noise behind the default threshold is estimated from a handful of second
+  // differences, and the distributions hold a few values (SPEC 6's study: 3 revolutions).
+  const bool short_series = used < kFewSamples;
+  if (short_series)
+    res.warnings.push_back("only " + std::to_string(used) + " samples analysed" +
+                           (has_rev ? " (" + deg(s.revolution[n - 1] - s.revolution[start]) + " revolution)" : std::string()) +
+                           ": too short for a reliable noise estimate (the default threshold) and distributions; "
+                           "analyse a longer series, or give --min-drop-deg");
+  if (res.detection.threshold_from_noise && res.detection.threshold_deg > 1.0 && !short_series)
     res.warnings.push_back("the series is noisy: the default event threshold is " +
                            deg(res.detection.threshold_deg) +
                            " deg, small (glass-bead) avalanches may be missed; see --min-drop-deg");

@@ -22,6 +22,8 @@ struct FlowabilityOptions {
 };
 
 inline constexpr std::size_t kMinSamples = 3;
+/// Fewer analysed samples than this: a warning that the series is too short to be read.
+inline constexpr std::size_t kFewSamples = 50;
 
 struct FlowabilityResult {
   double rpm = 0.0;

@@ -278,6 +278,35 @@ TEST(AnalysisFlowability, SpeedFromWrittenColumnsIsFreeOfTheirRounding) {
   }
 }
 
+// A series too short to be read (under 50 analysed samples) is analysed with a warning that
+// says so, instead of the "noisy series" warning its few second differences gave before; a
+// threshold of inf is refused as 0 is.
+TEST(AnalysisFlowability, ShortSeriesIsSaidToBeShort) {
+  Series s;
+  for (int i = 0; i < 10; ++i) {
+    s.time_s.push_back(0.02 * i);
+    s.revolution.push_back(0.02 * i * 10.0 / 60.0);
+    s.alpha_deg.push_back(30.0 + (i % 3 == 0 ? 3.0 : 0.0));
+  }
+  auto res = analyze_flowability(s, FlowabilityOptions{});
+  std::string all;
+  for (const auto& w : res.warnings) all += w + "\n";
+  EXPECT_NE(all.find("only 10 samples analysed (0.03 revolution): too short"), std::string::npos) << all;
+  EXPECT_EQ(all.find("the series is noisy"), std::string::npos) << all;
+  for (int i = 10; i < 60; ++i) {  // 60 samples: no such warning
+    s.time_s.push_back(0.02 * i);
+    s.revolution.push_back(0.02 * i * 10.0 / 60.0);
+    s.alpha_deg.push_back(30.0 + (i % 3 == 0 ? 3.0 : 0.0));
+  }
+  res = analyze_flowability(s, FlowabilityOptions{});
+  all.clear();
+  for (const auto& w : res.warnings) all += w + "\n";
+  EXPECT_EQ(all.find("too short"), std::string::npos) << all;
+  FlowabilityOptions inf;
+  inf.events.min_drop_deg = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(analyze_flowability(s, inf), Error);
+}
+
 TEST(AnalysisFlowability, BadInputsGiveClearErrors) {
   Series s;
   s.time_s = {0.0, 0.02};
