@@ -3,6 +3,7 @@
 # differ from it) and the build settings passed in by CMakeLists.txt. configure_file rewrites OUT
 # only when its text changes, so an unchanged tree recompiles nothing.
 set(BIODEM_SOURCE_COMMIT "not a git checkout")
+set(ENV{GIT_OPTIONAL_LOCKS} 0)  # (git status must not take the index lock a concurrent commit needs)
 find_package(Git QUIET)
 if(GIT_FOUND AND EXISTS "${SRC}/.git")
   execute_process(COMMAND "${GIT_EXECUTABLE}" -C "${SRC}" rev-parse --short=12 HEAD OUTPUT_VARIABLE commit

@@ -201,7 +201,7 @@ int run_analyze(const AnalyzeOptions& o) {
   // (no zoom, no r^2, a distribution without values, --no-plots) and must not leave old ones
   // beside its tables.
   output::remove_analysis_plots(dir.string());
-  if (!o.sweep) fs::remove(dir / "threshold_sweep.csv");
+  if (std::error_code ec; !o.sweep) fs::remove(dir / "threshold_sweep.csv", ec);
   output::write_events_csv((dir / "events.csv").string(), r);
   output::write_descriptors_csv((dir / "descriptors.csv").string(), r);
   if (!o.no_plots) write_plots(dir, file.series, r);

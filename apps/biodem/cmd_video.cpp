@@ -363,10 +363,11 @@ int run_video(const VideoOptions& o) {
 
   // Success: an earlier `biodem analyze` of the folder described the series replaced now, so its
   // tables and plots go first; then the new files, each whole (temporary file and rename).
-  output::remove_analysis_outputs(o.out);
-  if (!check_frame.empty()) write_check_image(out_dir / "video_check.png", check_frame, disc, params);
+  // (series.csv first: if it cannot be written, the folder keeps its earlier files)
   const fs::path series_path = out_dir / "series.csv";
   output::write_file_atomic(series_path.string(), rows);
+  output::remove_analysis_outputs(o.out);
+  if (!check_frame.empty()) write_check_image(out_dir / "video_check.png", check_frame, disc, params);
   std::cout << "wrote " << series_path.string() << " (" << measured << " frames, "
             << fmt(static_cast<double>(total) / o.fps, "%.3g") << " s at " << fmt(o.fps, "%g")
             << " fps)\n";

@@ -130,7 +130,8 @@ class Campaign {
     // what this one computes: said, not refused (a rebuild is often unrelated to the physics).
     if (o_.resume && !made_by_.empty() && made_by_ != build && !cache.empty()) {
       const std::string w = "calibrate: WARNING: the " + std::to_string(cache.size()) +
-                            " cached evaluations were made by another build (" + made_by_.substr(7) +
+                            " cached evaluations were made by another build (" +
+                            (made_by_.rfind("build: ", 0) == 0 ? made_by_.substr(7) : made_by_) +
                             "); the campaign's results may mix the two";
       log_ << w << "\n";
       std::cerr << w << "\n";
@@ -247,16 +248,38 @@ class Campaign {
     }
     // A failure that says nothing of the parameters (a kill, an internal error, outputs that
     // could not be written) stops the campaign before this batch is scored: cached as 1e9 it
-    // would stay so on every --resume. The runs that finished are re-used by --resume.
-    for (std::size_t q = 0; q < jobs.size(); ++q)
-      if (const std::string why = unscorable_failure(runs[q], jobs[q].dir); !why.empty()) {
-        const std::string what = "calibrate: the test run in " + jobs[q].dir + " " + why + "; generation " +
-                                 std::to_string(batch.front().generation) +
-                                 " is not scored; remove the cause and continue with --resume";
-        log_ << what << "\n";
-        log_.flush();
-        throw Error(what);
+    // would stay so on every --resume. The runs that finished are re-used by --resume. A crash
+    // (signal, internal error, not started) leaves a mark in its folder: the same run crashing
+    // again after a resume is scored as failed (its parameters crash it), so that the campaign
+    // can finish.
+    std::string stop;
+    for (std::size_t q = 0; q < jobs.size(); ++q) {
+      const TestRun& r = runs[q];
+      const std::string marker = jobs[q].dir + "/crashed_once";
+      const bool crash = r.rc != 0 && r.rc != 2 && !stopping_signal(r.rc);
+      const bool before = crash && fs::exists(marker);
+      const std::string why = unscorable_failure(r, jobs[q].dir, before);
+      if (!why.empty()) {
+        if (crash) {
+          std::error_code ec;
+          fs::create_directories(jobs[q].dir, ec);
+          std::ofstream(marker) << r.rc << "\n";
+        }
+        if (stop.empty())
+          stop = "calibrate: the test run in " + jobs[q].dir + " " + why + "; generation " +
+                 std::to_string(batch.front().generation) + " is not scored; remove the cause and continue with --resume" +
+                 (crash ? " (the same run crashing again is scored as failed)" : "");
+      } else if (before) {
+        log_ << "evaluation g" << batch[jobs[q].evaluation].generation << " e" << batch[jobs[q].evaluation].index << " "
+             << c_.tests[jobs[q].test].name << ": crashed again after a resume (status " << r.rc
+             << "): scored as failed (" << jobs[q].dir << ")\n";
       }
+    }
+    if (!stop.empty()) {
+      log_ << stop << "\n";
+      log_.flush();
+      throw Error(stop);
+    }
     std::vector<std::map<std::string, double>> responses(batch.size());
     std::vector<double> wall(batch.size(), 0.0);
     std::vector<std::string> errors(batch.size());

@@ -227,18 +227,29 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   }
 }
 
-std::string unscorable_failure(const TestRun& r, const std::string& dir) {
+std::string unscorable_failure(const TestRun& r, const std::string& dir, bool crashed_before) {
   if (r.rc == 0 || stopping_signal(r.rc)) return "";
-  if (r.rc == -1)
+  // A crash (a signal, an internal error, a run not started) is retried once by --resume; the
+  // same run crashing again is taken for what its parameters do (scored as failed), or the
+  // campaign could never finish.
+  if (r.rc == -1 && !crashed_before)
     return "could not be started, or its end not read" + (r.warnings.empty() ? std::string() : " (" + r.warnings.back() + ")");
-  if (r.rc > 128) return "was ended by signal " + std::to_string(r.rc - 128) + " (killed from outside, or for memory)";
-  if (r.rc != 2) return "ended with status " + std::to_string(r.rc) + " (an internal error; see " + dir + "/stdout.txt)";
+  if (r.rc > 128 && !crashed_before)
+    return "was ended by signal " + std::to_string(r.rc - 128) + " (killed from outside, or for memory)";
+  if (r.rc != 2 && r.rc != -1 && r.rc <= 128 && !crashed_before)
+    return "ended with status " + std::to_string(r.rc) + " (an internal error; see " + dir + "/stdout.txt)";
+  if (r.rc != 2) return "";
+  // biodem's own one-line error of this attempt: the last line of stdout.txt (a resumed run
+  // appends to it; the lines of earlier attempts say nothing of this one).
   std::ifstream in(dir + "/stdout.txt");
-  std::string line;
+  std::string line, last;
   while (std::getline(in, line))
-    for (const char* io : {"another biodem run is writing to this folder", "write failed", "cannot be written",
-                           "cannot write", "No space left", "Disk quota", "Read-only file system", "Permission denied"})
-      if (line.find(io) != std::string::npos) return "could not write its outputs: " + line;
+    if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
+  for (const char* io : {"another biodem run is writing to this folder", "write failed", "writing '", "cannot be written",
+                         "cannot write", "cannot open", "cannot create", "cannot sync", "cannot remove", "is not a file",
+                         "No space left", "Disk quota", "Read-only file system", "Permission denied",
+                         "Input/output error", "File too large"})
+    if (last.find(io) != std::string::npos) return "could not write its outputs: " + last;
   return "";
 }
 }  // namespace biodem::calib

@@ -35,9 +35,11 @@ struct TestRun {
 /// not be started or its folder made (rc -1), a signal other than the campaign's stop ended it
 /// (a kill, the memory limit), it ended with another status than biodem's 2 for a case or a
 /// run that failed (an internal error), or with 2 because it could not write its outputs or its
-/// folder was locked (its message in `dir`/stdout.txt). Such a failure stops the campaign
+/// folder was locked (its message, the last line of `dir`/stdout.txt). Such a failure stops the campaign
 /// unscored, so that --resume runs it again, instead of caching 1e9 for good.
-std::string unscorable_failure(const TestRun& r, const std::string& dir);
+/// `crashed_before`: this run crashed (signal, internal error, not started) on an earlier attempt;
+/// a second crash is scored as failed. Outputs that could not be written always stop.
+std::string unscorable_failure(const TestRun& r, const std::string& dir, bool crashed_before = false);
 
 /// Runs one job. The campaign's default runs `biodem` as a child process (run_test_process);
 /// tests substitute a model of the bulk tests.

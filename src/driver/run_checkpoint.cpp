@@ -98,7 +98,6 @@ void Runner::resume() {
   }
   rotation_time_s_ = resumed_.rotation_time_s;
   snapshot_index_ = resumed_.snapshot_index;
-  frame_index_ = frame_every_ ? sim_.step_count() / frame_every_ : 0;
   // Both appended outputs checked before either is cut: a refused resume changes nothing.
   const std::string series = opt_.out_dir + "/series.csv", trace = opt_.out_dir + "/trace.csv";
   check_for_checkpoint(series, resumed_.series_bytes);

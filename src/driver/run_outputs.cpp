@@ -92,7 +92,7 @@ void Runner::check_trace() const {
 
 void Runner::check_log() {
   log_.flush();
-  if (!log_) throw Error(opt_.out_dir + "/run.log: cannot be written (a folder of that name, disk full, or a file size limit?)");
+  if (!log_) throw Error(opt_.out_dir + "/run.log: cannot be written (disk full, or a file size limit?)");
 }
 
 void Runner::snapshot() {
@@ -171,7 +171,7 @@ void Runner::speed_image(std::size_t index) {
 
 void Runner::frame() {
 #if BIODEM_HAVE_OPENCV
-  if (!built_.drum) return;
+  if (!built_.drum || sim_.step_count() < frame_every_) return;
   sync(false);
   const auto& s = sim_.spheres();
   std::vector<double> x(s.size()), y(s.size());
@@ -182,7 +182,10 @@ void Runner::frame() {
   const cv::Mat img = analysis::render_backlit_frame(x, y, s.radius_m, built_.drum->radius_m(),
                                                      static_cast<int>(cfg_.output.frame_size_px));
   char name[64];
-  std::snprintf(name, sizeof name, "%06zu.png", frame_index_++);
+  // Frame k after step (k + 1) n, from the step: a resumed run, or a frame written after an
+  // insertion wave made at its step, numbers it as the uninterrupted run does.
+  std::snprintf(name, sizeof name, "%06llu.png",
+                static_cast<unsigned long long>(sim_.step_count() / frame_every_ - 1));
   const std::string path = opt_.out_dir + "/frames/" + name;
   output::write_png(path, img);
 #endif

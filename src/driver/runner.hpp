@@ -74,8 +74,8 @@ class Runner {
   void checkpoint();
   void resume();
   void after_step();
-  void outputs_due();
-  void check_output_names() const;  // the files the run writes in DIR are not folders  // the sample, snapshot, frame and speed image due at this step
+  void outputs_due();                // the sample, snapshot, frame and speed image due at this step
+  void check_output_names() const;  // the files the run writes in DIR are not folders
   void sample();
   void snapshot();
   double revolution() const;
@@ -123,7 +123,6 @@ class Runner {
   std::unique_ptr<output::PvdCollection> pvd_, pvd_bodies_;
   std::ofstream log_;
   std::uint64_t sample_every_ = 1, snapshot_every_ = 0, frame_every_ = 0, checkpoint_every_ = 0;
-  std::size_t frame_index_ = 0;
   bool speed_images_ = false;   // speed images ([output] speed_images): at each snapshot, or
   std::uint64_t speed_image_every_ = 0;  // every this many steps ([output] speed_image_every_s)
   double speed_scale_m_s_ = 0;  // the top of their colour scale

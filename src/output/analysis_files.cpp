@@ -9,13 +9,17 @@
 
 namespace biodem::output {
 
+// (A file that cannot be removed, in a read-only folder, is left: the new files written next
+// then fail with a one-line error naming the file.)
 void remove_analysis_plots(const std::string& dir) {
+  std::error_code ec;
   for (const char* stem : kAnalysisPlots)
-    for (const char* ext : {".png", ".svg"}) std::filesystem::remove(std::filesystem::path(dir) / (std::string(stem) + ext));
+    for (const char* ext : {".png", ".svg"}) std::filesystem::remove(std::filesystem::path(dir) / (std::string(stem) + ext), ec);
 }
 
 void remove_analysis_outputs(const std::string& dir) {
-  for (const char* f : kAnalysisTables) std::filesystem::remove(std::filesystem::path(dir) / f);
+  std::error_code ec;
+  for (const char* f : kAnalysisTables) std::filesystem::remove(std::filesystem::path(dir) / f, ec);
   remove_analysis_plots(dir);
 }
 

@@ -86,6 +86,15 @@ void expect_same_outputs(const std::string& a, const std::string& b, const std::
     for (const auto& f : fa)
       EXPECT_TRUE(slurp(a + "/" + dir + "/" + f) == slurp(b + "/" + dir + "/" + f)) << label << ": " << dir << "/" << f << " differs";
   }
+  // Frames, when the case renders them: the same names (numbered by step) and bytes.
+  if (fs::exists(a + "/frames") || fs::exists(b + "/frames")) {
+    std::set<std::string> fa, fb;
+    for (const auto& e : fs::directory_iterator(a + "/frames")) fa.insert(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(b + "/frames")) fb.insert(e.path().filename().string());
+    EXPECT_EQ(fa, fb) << label << ": frames";
+    for (const auto& f : fa)
+      EXPECT_TRUE(slurp(a + "/frames/" + f) == slurp(b + "/frames/" + f)) << label << ": frames/" << f << " differs";
+  }
 }
 
 /// Runs `case_file` uninterrupted into `<tag>_full`, then once per kill: stopped at the step,
@@ -148,11 +157,12 @@ TEST(ResumeInsertion, DrumKilledDuringInsertionResumesBitForBit) {
 // a snapshot. That step's outputs wait for the wave: one row and one snapshot per time, of the
 // state with the wave's beads (before, the step's outputs showed the state before the wave, and
 // the end of insertion wrote a second snapshot of the same time, 1000 beads against 967). Killed
-// and resumed on those steps, bit for bit.
+// and resumed on those steps, bit for bit (frames too: before, a resume from the checkpoint of
+// a fall's last step numbered every later frame one too high).
 TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
   std::string text = slurp(kWaves);
   for (const auto& [from, to] : {std::pair<std::string, std::string>{"sample_hz = 500.0", "sample_hz = 333.3333333333"},
-                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009"}}) {
+                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009\nframe_every_s = 0.009\nframe_size_px = 64"}}) {
     const auto at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;
     text.replace(at, from.size(), to);
@@ -182,6 +192,9 @@ TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
   while (std::getline(trace, line))
     if (line.rfind("0.027,", 0) == 0) ++at_last_wave;
   EXPECT_EQ(at_last_wave, 1000u);
+  // Frames numbered by step: frame k after step 600 (k + 1), the waves' steps included.
+  for (const char* f : {"000000.png", "000001.png", "000002.png", "000003.png"})
+    EXPECT_TRUE(fs::exists(d + "/frames/" + f)) << f;
   kill_and_resume(case_file, "ins_cadence", "cpu", {{false, 1200, "insert"}, {true, 1801, "settle"}, {false, 1800, "insert"}});
 }
 

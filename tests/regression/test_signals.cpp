@@ -139,10 +139,18 @@ TEST(Signals, TraceThatCannotBeWrittenStopsTheRun) {
   EXPECT_NE(r.output.find("trace.csv: write failed"), std::string::npos) << r.output;
 }
 
-// An output of the run that cannot be a file (here a folder named run.log, series.csv or
-// trace.csv) stops the run with one line before any step, instead of a run whose log stays
-// empty, a series written inside the folder, or an "internal error".
+// run.log that cannot be written (a file size limit of 1 KB: its header is longer) stops the run
+// with one line before any step, instead of a run whose log stays cut short. An output of the
+// run that cannot be a file (a folder named run.log, series.csv or trace.csv) stops it too,
+// instead of a series written inside the folder or an "internal error".
 TEST(Signals, RunLogThatCannotBeWrittenStopsTheRun) {
+  {
+    const std::string d = fresh_dir("sig_runlog_limit");
+    const auto r = run_command("bash -c \"ulimit -f 1; " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1\"");
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("run.log: cannot be written"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(d + "/series.csv")) << "stopped before any output";
+  }
   const std::string d = fresh_dir("sig_runlog");
   fs::create_directories(d + "/run.log");
   auto r = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");

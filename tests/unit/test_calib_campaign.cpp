@@ -404,6 +404,55 @@ TEST(CalibCampaign, AFailureThatSaysNothingOfTheParametersStopsTheCampaignUnscor
   }
 }
 
+// A test run that crashes again after a resume (its parameters crash it: the same signal, or an
+// internal error) is scored as failed, so that the campaign can finish; its first crash stopped
+// the campaign unscored. Outputs that could not be written stop it every time.
+TEST(CalibCampaign, ARunCrashingAgainAfterAResumeIsScoredAsFailed) {
+  const auto c = micro();
+  const std::string d = fresh_dir("calib_model_crash_twice");
+  auto crashing = [](const calib::TestJob& j) {
+    calib::TestRun r = model(j, nullptr);
+    if (j.test == 1 && j.evaluation == 5) {
+      r.rc = 128 + 11;  // SIGSEGV, every time
+      r.responses.clear();
+    }
+    return r;
+  };
+  calib::CampaignOptions o;
+  o.out_dir = d;
+  o.runner = crashing;
+  EXPECT_THROW(calib::run_campaign(c, o), Error);
+  EXPECT_TRUE(fs::exists(d + "/runs/g0/e5/shear_box/crashed_once"));
+  o.resume = true;
+  // The crash again: scored as failed; generation 1's e5 crashes a first time too (a new run),
+  // then a second: three attempts in all, and the campaign ends.
+  EXPECT_THROW(calib::run_campaign(c, o), Error);
+  calib::run_campaign(c, o);
+  const auto rows = calib::read_evaluations(d + "/evaluations.csv", 3, 2);
+  ASSERT_EQ(rows.size(), 16u);
+  EXPECT_EQ(rows[5].o1, 1e9);
+  EXPECT_EQ(rows[5].o2, 1e9);
+  EXPECT_NE(slurp(d + "/campaign.log").find("crashed again after a resume (status 139): scored as failed"), std::string::npos);
+
+  // Outputs that could not be written: a stop at every attempt.
+  const std::string w = fresh_dir("calib_model_write_twice");
+  o = {};
+  o.out_dir = w;
+  o.runner = [](const calib::TestJob& j) {
+    calib::TestRun r = model(j, nullptr);
+    if (j.test == 1 && j.evaluation == 5) {
+      fs::create_directories(j.dir);
+      std::ofstream(j.dir + "/stdout.txt") << "biodem: error: x/series.csv: writing 'x/series.csv' failed\n";
+      r.rc = 2;
+      r.responses.clear();
+    }
+    return r;
+  };
+  EXPECT_THROW(calib::run_campaign(c, o), Error);
+  o.resume = true;
+  EXPECT_THROW(calib::run_campaign(c, o), Error);
+}
+
 // campaign.id names the build that started the campaign; a --resume by another build says in
 // campaign.log (and on stderr) that the cached evaluations were made by that one.
 TEST(CalibCampaign, AResumeByAnotherBuildIsWarnedAbout) {
