@@ -337,8 +337,9 @@ int run_video(const VideoOptions& o) {
     std::cerr << "warning: no powder found in " << empty.size() << " frame(s) (alpha left empty): "
               << empty.str() << "\n";
   // A damaged or cut-short video: decoding stops at the first frame that cannot be decoded. The
-  // container's count can be approximate for some codecs, so this is a warning.
-  if (source->is_video() && source->container_frames() > total)
+  // container's count is an estimate for some formats (duration x frame rate): a warning, and
+  // only when more than 2 frames and 1 % of the declared ones are missing.
+  if (source->is_video() && source->container_frames() > total + std::max<std::size_t>(2, source->container_frames() / 100))
     std::cerr << "warning: the video '" << o.frames << "' declares " << source->container_frames()
               << " frames but only " << total << " could be decoded (a damaged or cut-short file?): series.csv ends at t = "
               << fmt(static_cast<double>(total - 1) / o.fps, "%.4g") << " s\n";
