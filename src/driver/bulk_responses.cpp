@@ -39,6 +39,7 @@ void Runner::write_responses() {
     rows.push_back({"angle_of_repose_min_deg", h.angle_min_deg, "deg"});
     rows.push_back({"angle_of_repose_max_deg", h.angle_max_deg, "deg"});
     rows.push_back({"heap_sectors_fitted", static_cast<double>(h.sectors_fitted), "-"});
+    rows.push_back({"heap_sectors_steep", static_cast<double>(h.sectors_steep), "-"});
     rows.push_back({"heap_height_m", h.height_m, "m"});
     rows.push_back({"heap_base_radius_m", h.base_radius_m, "m"});
     rows.push_back({"heap_bodies", static_cast<double>(h.heap_bodies), "-"});
@@ -49,7 +50,15 @@ void Runner::write_responses() {
     // 80 % of its height spans a few bins): its angle says more about single particles than
     // about the powder (the quick example's heap, 5 beads high: 20.4 degrees; 3,200 of the same
     // beads, 9.6 high: 30.1; docs/calibration.md).
-    if (h.valid && h.height_m < 10.0 * d) {
+    if (h.sectors_steep > 0) {
+      char buf[256];
+      std::snprintf(buf, sizeof buf,
+                    "WARNING: heap: %zu of %zu fitted sectors are too steep for 3 profile bins in the fitted band "
+                    "(base radius %.3g mm, bins %.3g mm): their angles come from the band's crossings, coarser",
+                    h.sectors_steep, h.sectors_fitted, h.base_radius_m * 1e3, d * 1e3);
+      warnings.push_back(buf);
+    }
+    if (h.height_m > 0.0 && h.height_m < 10.0 * d) {
       char buf[256];
       std::snprintf(buf, sizeof buf,
                     "WARNING: heap: it stands %.3g particle sizes high (d_eq %.3g mm): under 10, its fitted angle "

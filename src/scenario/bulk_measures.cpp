@@ -151,7 +151,29 @@ HeapResult measure_heap(const std::vector<Vec3>& c, const std::vector<double>& r
         y.push_back(t);
       }
     }
-    const double slope = fitted_slope(x, y);
+    double slope = fitted_slope(x, y);
+    // (only on a heap at least 4 bins high: the band's two levels then lie more than 2 bins
+    // apart; on a lower bed the crossings are those of single particles, and a bump of a flat
+    // bed would read as a steep flank)
+    if (x.size() < 3 && out.height_m >= 4.0 * o.bin_m) {
+      // A steep sector: the band (0.6 H high) spans fewer than 3 bins of its profile (at tan
+      // theta above about 0.2 H / d). Its slope from where the profile crosses the band's two
+      // levels, each radius interpolated between the bin centres around the crossing (before,
+      // such a sector was not fitted, and a steep heap or a standing column scored 0 degrees).
+      auto crossing = [&](double level) {  // outermost radius where the profile is still >= level
+        for (std::size_t k = nbins; k-- > 0;) {
+          const double t = sector_top[s][k];
+          if (!(std::isfinite(t) && t >= level)) continue;
+          const double next = k + 1 < nbins && std::isfinite(sector_top[s][k + 1]) ? sector_top[s][k + 1] : 0.0;
+          const double f = t > next ? std::clamp((t - level) / (t - next), 0.0, 1.0) : 0.0;
+          return (static_cast<double>(k) + 0.5 + f) * o.bin_m;
+        }
+        return std::nan("");
+      };
+      const double r_hi = crossing(hi), r_lo = crossing(lo);
+      slope = r_lo > r_hi ? -(hi - lo) / (r_lo - r_hi) : std::nan("");
+      if (std::isfinite(slope)) ++out.sectors_steep;
+    }
     if (!std::isfinite(slope)) continue;
     out.sector_angle_deg[s] = std::atan(-slope) * 180.0 / std::numbers::pi;
     fitted.push_back(out.sector_angle_deg[s]);

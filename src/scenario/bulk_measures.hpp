@@ -46,6 +46,7 @@ struct HeapResult {
   double angle_min_deg = 0.0, angle_max_deg = 0.0;
   std::vector<double> sector_angle_deg;  // one per sector; NaN where it could not be fitted
   std::size_t sectors_fitted = 0;
+  std::size_t sectors_steep = 0;  // fitted from the band's two crossings (fewer than 3 bins in it)
   double height_m = 0.0;
   double base_radius_m = 0.0;
   std::size_t heap_bodies = 0;
