@@ -160,9 +160,14 @@ TEST(ResumeInsertion, DrumKilledDuringInsertionResumesBitForBit) {
 // and resumed on those steps, bit for bit (frames too: before, a resume from the checkpoint of
 // a fall's last step numbered every later frame one too high).
 TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
+#if BIODEM_HAVE_OPENCV
+  const std::string frames = "\nframe_every_s = 0.009\nframe_size_px = 64";
+#else
+  const std::string frames;  // (the lean build renders no frames)
+#endif
   std::string text = slurp(kWaves);
   for (const auto& [from, to] : {std::pair<std::string, std::string>{"sample_hz = 500.0", "sample_hz = 333.3333333333"},
-                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009\nframe_every_s = 0.009\nframe_size_px = 64"}}) {
+                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009" + frames}}) {
     const auto at = text.find(from);
     ASSERT_NE(at, std::string::npos) << from;
     text.replace(at, from.size(), to);
@@ -193,8 +198,11 @@ TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
     if (line.rfind("0.027,", 0) == 0) ++at_last_wave;
   EXPECT_EQ(at_last_wave, 1000u);
   // Frames numbered by step: frame k after step 600 (k + 1), the waves' steps included.
-  for (const char* f : {"000000.png", "000001.png", "000002.png", "000003.png"})
-    EXPECT_TRUE(fs::exists(d + "/frames/" + f)) << f;
+  if (!frames.empty()) {
+    for (const char* f : {"000000.png", "000001.png", "000002.png", "000003.png"}) {
+      EXPECT_TRUE(fs::exists(d + "/frames/" + f)) << f;
+    }
+  }
   kill_and_resume(case_file, "ins_cadence", "cpu", {{false, 1200, "insert"}, {true, 1801, "settle"}, {false, 1800, "insert"}});
 }
 
