@@ -167,6 +167,29 @@ TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
   }
 }
 
+// `biodem check` on a calibration file checks it as calibrate does (exit 0, its tests, parameters
+// and targets printed), and on a test's case or base file alone says to check the calibration
+// file instead (before: "[campaign]: unknown top-level key" and "[run]: required table is
+// missing" with nothing more).
+TEST(Calibrate, CheckTakesACalibrationFileAndPointsAFragmentToIt) {
+  const std::string dir = source_dir() + "/cases/calibration/";
+  for (const char* f : {"quick/campaign.toml", "quick/twin_campaign.toml", "quick/drum_narrow.toml", "twin_campaign_raw.toml"}) {
+    const auto r = run_command(biodem_exe() + " check " + dir + f);
+    EXPECT_EQ(r.status, 0) << f << ": " << r.output;
+    EXPECT_NE(r.output.find("calibration file: "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("parameters:\n"), std::string::npos) << r.output;
+  }
+  const auto twin = run_command(biodem_exe() + " check " + dir + "quick/twin_campaign.toml");
+  EXPECT_NE(twin.output.find("  mu_s in [0.1, 0.9]: pair.bead.bead.sliding_friction"), std::string::npos) << twin.output;
+  for (const char* f : {"quick/heap.toml", "quick/base.toml", "base_raw.toml"}) {
+    const auto r = run_command(biodem_exe() + " check " + dir + f);
+    EXPECT_EQ(r.status, 2) << f << ": " << r.output;
+    EXPECT_NE(r.output.find("checked through its calibration file: biodem check CALIB.toml"), std::string::npos)
+        << f << ": " << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+}
+
 // Every shipped campaign file loads: its tests, bases, targets and parameter keys resolve, and
 // each test's case (base merged in) is valid with the parameters at both ends of their bounds
 // (load_calib checks all of this before a campaign runs anything).
