@@ -1,5 +1,6 @@
 // Helpers for tests that drive the biodem binary like a user does.
 #pragma once
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <array>
@@ -11,6 +12,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace biodem::testing {
@@ -41,6 +43,25 @@ inline std::string slurp(const std::string& path) {
 inline std::string source_dir() { return BIODEM_SOURCE_DIR; }
 
 /// A fresh, empty directory under the build tree's test folder.
+/// The case file `source` with each (from, to) edit applied at its first occurrence (a from
+/// that is not there fails the test), written as `name` in the working directory; returns its
+/// path.
+inline std::string edited_case(const std::string& source, const std::vector<std::pair<std::string, std::string>>& edits,
+                               const std::string& name) {
+  std::string text = slurp(source);
+  for (const auto& [from, to] : edits) {
+    const auto at = text.find(from);
+    if (at == std::string::npos) {
+      ADD_FAILURE() << source << ": edit not applied: " << from;
+      continue;
+    }
+    text.replace(at, from.size(), to);
+  }
+  const std::string path = (std::filesystem::current_path() / name).string();
+  std::ofstream(path) << text;
+  return path;
+}
+
 inline std::string fresh_dir(const std::string& name) {
   const auto p = std::filesystem::current_path() / ("out_" + name);
   std::filesystem::remove_all(p);

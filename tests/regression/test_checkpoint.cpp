@@ -169,16 +169,12 @@ TEST(CheckpointRestart, CheckReportsThePhaseStepsTheRunMakes) {
 // before, they were the summed clock, which after some 49,000 steps of 1.5e-5 s printed
 // 0.731774999999 where the series said 0.731775. 50 beads, half a revolution (about 70,000 steps).
 TEST(CheckpointRestart, SnapshotTimesAreWholeStepsTimesDt) {
-  std::string text = slurp(kCase);
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"count = 400", "count = 50"},
-                                 {"revolutions = 0.06", "revolutions = 0.5"},
-                                 {"snapshot_every_s = 0.02", "snapshot_every_s = 0.0133"}}) {
-    const auto at = text.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    text.replace(at, from.size(), to);
-  }
-  const std::string case_file = (fs::current_path() / "pvd_times.toml").string();
-  std::ofstream(case_file) << text;
+  const std::string case_file = edited_case(kCase,
+                                            {{"count = 400", "count = 50"},
+                                             {"revolutions = 0.06", "revolutions = 0.5"},
+                                             {"snapshot_every_s = 0.02", "snapshot_every_s = 0.0133"}},
+                                            "pvd_times.toml");
+  const std::string text = slurp(case_file);
   const std::string d = fresh_dir("pvd_times");
   const auto r = run_command(biodem_exe() + " run " + case_file + " --out " + d + " --threads 1");
   ASSERT_EQ(r.status, 0) << r.output;

@@ -165,15 +165,9 @@ TEST(ResumeInsertion, WavesOnTheOutputCadenceGiveOneStatePerTime) {
 #else
   const std::string frames;  // (the lean build renders no frames)
 #endif
-  std::string text = slurp(kWaves);
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"sample_hz = 500.0", "sample_hz = 333.3333333333"},
-                                 {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009" + frames}}) {
-    const auto at = text.find(from);
-    ASSERT_NE(at, std::string::npos) << from;
-    text.replace(at, from.size(), to);
-  }
-  const std::string case_file = (fs::current_path() / "ins_cadence.toml").string();
-  std::ofstream(case_file) << text;
+  const std::string case_file = edited_case(
+      kWaves, {{"sample_hz = 500.0", "sample_hz = 333.3333333333"}, {"snapshot_every_s = 0.005", "snapshot_every_s = 0.009" + frames}},
+      "ins_cadence.toml");
   const std::string d = fresh_dir("ins_cadence_once");
   const auto r = run_command(run_cmd(case_file, d, "cpu"));
   ASSERT_EQ(r.status, 0) << r.output;
