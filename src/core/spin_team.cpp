@@ -1,12 +1,57 @@
 #include "core/spin_team.hpp"
 
+#include <sched.h>
+
 #include <chrono>
 
 namespace biodem {
 namespace {
-// How long an idle worker keeps spinning before it sleeps: longer than the driver's work between
-// two steps (a few microseconds) and the serial parts of a list build (below 100 us at 5k spheres).
-constexpr std::chrono::microseconds kIdleSpin{200};
+// How long a waiting thread keeps spinning before it sleeps: longer than the driver's work
+// between two steps (a few microseconds), the serial parts of a list build (below 100 us at 5k
+// spheres) and the threads' imbalance at a barrier of a step on cores of their own (tens of us).
+// Only a thread whose partner has no core (a host running more threads than it has cores) waits
+// longer; it then sleeps instead of holding the core for the rest of its scheduler slice.
+constexpr std::chrono::microseconds kWaitSpin{200};
+// The spin of a team with more threads than the CPUs the process may run on (taskset, a cgroup's
+// cpuset): there the awaited thread can only run when the waiting one gives the CPU up, and a
+// 200 us spin before each wait cost 2.9x the one-thread step (2 threads on 1 CPU, the small glass
+// drum: 690-702 us/step against 240; 3,923-3,986 without sleeping at all).
+constexpr std::chrono::microseconds kShortSpin{5};
+
+// The CPUs the calling thread may run on (its affinity mask, which the team's workers inherit
+// when they are started); 0 if unknown.
+int allowed_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) != 0) return 0;
+  return CPU_COUNT(&set);
+}
+
+// Spins (plain loads, no PAUSE) until done(), for at most `spin`; then sleeps on `word` (futex)
+// until done(), counted in `sleepers` so that the thread that makes done() true knows to wake
+// it (notify_after below). Both sides use sequentially consistent operations on the word and
+// the count: either the waker sees the sleeper counted, or the sleeper sees the word changed
+// before it sleeps (a futex wait also returns at once when the word has changed).
+template <class T, class Done>
+void spin_then_sleep(std::atomic<T>& word, std::atomic<int>& sleepers, std::atomic<std::uint64_t>& sleeps,
+                     std::chrono::microseconds spin, Done done) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (std::uint32_t k = 1;; ++k) {
+    if (done()) return;
+    if ((k & 255u) == 0 && std::chrono::steady_clock::now() - t0 > spin) break;
+  }
+  sleeps.fetch_add(1, std::memory_order_relaxed);
+  sleepers.fetch_add(1, std::memory_order_seq_cst);
+  for (T seen = word.load(std::memory_order_seq_cst); !done(); seen = word.load(std::memory_order_seq_cst))
+    word.wait(seen, std::memory_order_seq_cst);
+  sleepers.fetch_sub(1, std::memory_order_seq_cst);
+}
+
+// Wakes the threads asleep on `word` after the caller changed it (with a seq_cst operation).
+template <class T>
+void notify_after(std::atomic<T>& word, const std::atomic<int>& sleepers) {
+  if (sleepers.load(std::memory_order_seq_cst) > 0) word.notify_all();
+}
 // Set while this thread runs a one-thread job: its barriers return at once.
 thread_local bool tl_solo = false;
 // Set while this thread runs any job of the team.
@@ -37,6 +82,9 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
     workers_.emplace_back([this, me] { worker_loop(me); });
     workers_.back().detach();
   }
+  const int cpus = allowed_cpus();
+  const std::chrono::microseconds spin = cpus > 0 && n > cpus ? kShortSpin : kWaitSpin;
+  spin_us_.store(spin.count(), std::memory_order_relaxed);
   job_ = &job;
   n_ = n;
   finished_.store(0, std::memory_order_relaxed);
@@ -47,8 +95,8 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
   generation_.store(next | static_cast<std::uint64_t>(n), std::memory_order_release);
   generation_.notify_all();
   auto wait_for_workers = [&] {
-    while (finished_.load(std::memory_order_acquire) != n - 1) {
-    }
+    spin_then_sleep(finished_, finish_sleepers_, sleeps_, spin,
+                    [&] { return finished_.load(std::memory_order_acquire) == n - 1; });
     job_ = nullptr;
   };
   try {
@@ -65,14 +113,16 @@ void SpinTeam::run(int n, const std::function<void(int, int)>& job) {
 
 void SpinTeam::barrier() {
   if (tl_solo) return;
-  const std::uint64_t g = barrier_gen_.load(std::memory_order_acquire);
+  const std::uint32_t g = barrier_gen_.load(std::memory_order_acquire);
   if (arrived_.fetch_add(1, std::memory_order_acq_rel) == n_ - 1) {
     arrived_.store(0, std::memory_order_relaxed);
-    barrier_gen_.fetch_add(1, std::memory_order_release);
+    barrier_gen_.fetch_add(1, std::memory_order_seq_cst);
+    notify_after(barrier_gen_, barrier_sleepers_);
     return;
   }
-  while (barrier_gen_.load(std::memory_order_acquire) == g) {
-  }
+  const std::chrono::microseconds spin{spin_us_.load(std::memory_order_relaxed)};
+  spin_then_sleep(barrier_gen_, barrier_sleepers_, sleeps_, spin,
+                  [&] { return barrier_gen_.load(std::memory_order_acquire) != g; });
 }
 
 void SpinTeam::worker_loop(int me) {
@@ -84,7 +134,8 @@ void SpinTeam::worker_loop(int me) {
     for (std::uint32_t k = 1;; ++k) {
       g = generation_.load(std::memory_order_acquire);
       if (g != seen) break;
-      if ((k & 1023u) == 0 && std::chrono::steady_clock::now() - t0 > kIdleSpin) {
+      if ((k & 1023u) == 0 &&
+          std::chrono::steady_clock::now() - t0 > std::chrono::microseconds{spin_us_.load(std::memory_order_relaxed)}) {
         generation_.wait(seen, std::memory_order_acquire);
         t0 = std::chrono::steady_clock::now();
       }
@@ -96,7 +147,8 @@ void SpinTeam::worker_loop(int me) {
         const InJob in;
         (*job_)(me, n);
       }
-      finished_.fetch_add(1, std::memory_order_acq_rel);
+      finished_.fetch_add(1, std::memory_order_seq_cst);
+      notify_after(finished_, finish_sleepers_);
     }
   }
 }

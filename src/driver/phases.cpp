@@ -11,6 +11,7 @@
 #include <cstdio>
 
 #include "core/parallel.hpp"
+#include "core/spin_team.hpp"
 
 namespace biodem::driver {
 
@@ -122,6 +123,7 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   sim_.set_profile(opt_.profile && !dev_);
   sim_.reset_profile();
   const double cpu0 = process_cpu_s();
+  const std::uint64_t team_sleeps0 = team().sleeps();
   const std::uint64_t builds0 = list_builds();
   const auto t0 = std::chrono::steady_clock::now();
   bool settled = p.criterion && k >= p.min_steps && below >= p.hold_steps;
@@ -179,15 +181,16 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
   if (opt_.profile && !dev_ && sim_.profile().steps > 0) {
     const sim::StepProfile& q = sim_.profile();
     const double per = 1e6 / static_cast<double>(q.steps);
-    char buf[512];
+    char buf[768];
     std::snprintf(buf, sizeof buf,
                   "\nprofile '%s' (us/step over %llu steps, %llu list builds): step %.1f = drift %.1f + list %.1f + "
                   "pairs %.1f (threads busy %.0f %%) + gather/walls/kick %.1f (with the next step's drift where it "
-                  "follows); outside step() %.1f",
+                  "follows); outside step() %.1f; %llu waits of the thread team slept (after a %lld us spin)",
                   p.name.c_str(), static_cast<unsigned long long>(q.steps), static_cast<unsigned long long>(q.builds),
                   q.step_s * per, q.drift_s * per, q.list_s * per, q.pairs_s * per,
                   q.pairs_s > 0.0 ? 100.0 * q.pairs_busy_s / q.pairs_s : 0.0, q.gather_s * per,
-                  (wall - q.step_s) * per);
+                  (wall - q.step_s) * per, static_cast<unsigned long long>(team().sleeps() - team_sleeps0),
+                  static_cast<long long>(team().spin_us()));
     log_ << buf;
   }
   if (p.criterion) last_settled_ = below >= p.hold_steps;

@@ -2,6 +2,8 @@
 // list build's and the wall candidates' loops on the team instead of OpenMP.
 #include <gtest/gtest.h>
 
+#include <sched.h>
+
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -77,4 +79,73 @@ TEST(SpinTeam, BarrierSeparatesRounds) {
     }
   });
   EXPECT_EQ(errors.load(), 0);
+}
+
+// A thread held up past the team's spin (2 ms here, against 200 us) finds the others asleep at
+// the barrier or at the end of the job; they are woken when it arrives, over many rounds, and
+// what each wrote before the barrier is seen by all after it.
+TEST(SpinTeam, ThreadsAsleepAtABarrierOrAtTheJobEndAreWoken) {
+  constexpr int kThreads = 3, kRounds = 12;
+  const std::uint64_t sleeps_before = team().sleeps();
+  std::vector<std::atomic<int>> value(kThreads);
+  std::atomic<int> errors{0};
+  std::atomic<int> last_done{0};
+  for (int job = 0; job < 4; ++job) {
+    team().run(kThreads, [&](int me, int n) {
+      for (int r = 1; r <= kRounds; ++r) {
+        if (me == r % n) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        value[me].store(r + 100 * job, std::memory_order_relaxed);
+        team().barrier();
+        for (int t = 0; t < n; ++t)
+          if (value[t].load(std::memory_order_relaxed) != r + 100 * job) errors.fetch_add(1);
+        team().barrier();
+      }
+      // A worker still busy long after the caller's share ended: run() returns after it.
+      if (me == n - 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        last_done.store(job + 1, std::memory_order_relaxed);
+      }
+    });
+    EXPECT_EQ(last_done.load(), job + 1) << "run() returned before a worker ended its share";
+  }
+  EXPECT_EQ(errors.load(), 0);
+  // Every round left two threads waiting 2 ms at a barrier, and every job the caller at its end.
+  EXPECT_GE(team().sleeps() - sleeps_before, static_cast<std::uint64_t>(4 * kRounds));
+}
+
+// A team larger than the CPUs its caller may use (here 3 threads on one CPU, as under taskset or
+// a cgroup's cpuset) spins 5 us instead of 200 before sleeping: there the awaited thread can only
+// run once the waiting one gives the CPU up. Its barriers and job ends still hold.
+TEST(SpinTeam, ATeamLargerThanItsCpusSpinsBriefly) {
+  cpu_set_t before;
+  CPU_ZERO(&before);
+  ASSERT_EQ(sched_getaffinity(0, sizeof before, &before), 0);
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &before)) {
+      CPU_SET(c, &one);
+      break;
+    }
+  ASSERT_EQ(sched_setaffinity(0, sizeof one, &one), 0);  // the calling thread only
+  constexpr int kThreads = 3, kRounds = 200;
+  std::vector<std::atomic<int>> value(kThreads);
+  std::atomic<int> errors{0};
+  team().run(kThreads, [&](int me, int n) {
+    for (int r = 1; r <= kRounds; ++r) {
+      value[me].store(r, std::memory_order_relaxed);
+      team().barrier();
+      for (int t = 0; t < n; ++t)
+        if (value[t].load(std::memory_order_relaxed) != r) errors.fetch_add(1);
+      team().barrier();
+    }
+  });
+  const auto spin_on_one_cpu = team().spin_us();
+  ASSERT_EQ(sched_setaffinity(0, sizeof before, &before), 0);
+  EXPECT_EQ(errors.load(), 0);
+  EXPECT_EQ(spin_on_one_cpu, 5);
+  if (CPU_COUNT(&before) >= kThreads) {
+    team().run(kThreads, [](int, int) {});
+    EXPECT_EQ(team().spin_us(), 200);
+  }
 }
