@@ -199,7 +199,7 @@ int run_compare(const CompareOptions& o) {
   const fs::path out_dir = o.out;
   std::error_code ec;
   fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir)) throw Error("cannot create output folder '" + o.out + "'");
+  if (!fs::is_directory(out_dir)) throw OutputError("cannot create output folder '" + o.out + "'");
 
   const auto table = analysis::descriptor_table();
   std::vector<std::vector<int>> ranks(table.size());

@@ -174,7 +174,7 @@ int run_video(const VideoOptions& o) {
       throw Error("--out '" + o.out + "' holds a simulation run's outputs (" + run_file +
                   "); biodem video would replace its series.csv: choose another --out");
   fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir, ec)) throw Error("cannot create output folder '" + o.out + "'");
+  if (!fs::is_directory(out_dir, ec)) throw OutputError("cannot create output folder '" + o.out + "'");
   const output::DirLock lock = output::lock_output_dir(o.out);
 
   analysis::FrameParams params;

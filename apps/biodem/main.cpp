@@ -69,6 +69,9 @@ int main(int argc, char** argv) {
   try {
     for (auto& [sub, action] : actions)
       if (sub->parsed()) return action();
+  } catch (const biodem::OutputError& e) {
+    std::cerr << "biodem: error: " << e.what() << "\n";
+    return 4;
   } catch (const biodem::Error& e) {
     std::cerr << "biodem: error: " << e.what() << "\n";
     return 2;

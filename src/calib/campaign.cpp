@@ -64,7 +64,7 @@ std::string campaign_id(const CalibConfig& c, bool evaluate) {
 // A campaign file that could not be written (a full disk, a file size limit) stops the campaign
 // with one line, instead of a "done" over files that miss rows.
 void check_written(std::ostream& f, const std::string& path) {
-  if (!f) throw Error(path + ": write failed (disk full, or a file size limit?)");
+  if (!f) throw OutputError(path + ": write failed (disk full, or a file size limit?)");
 }
 
 class Campaign {

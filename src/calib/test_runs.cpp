@@ -236,20 +236,18 @@ std::string unscorable_failure(const TestRun& r, const std::string& dir, bool cr
     return "could not be started, or its end not read" + (r.warnings.empty() ? std::string() : " (" + r.warnings.back() + ")");
   if (r.rc > 128 && !crashed_before)
     return "was ended by signal " + std::to_string(r.rc - 128) + " (killed from outside, or for memory)";
+  if (r.rc == 4) {
+    // Exit status 4: the run could not write its outputs (a full disk, permissions, a file size
+    // limit, its folder held by another biodem process). The reason is biodem's one-line error
+    // of this attempt, the last line of stdout.txt (a resumed run appends to it).
+    std::ifstream in(dir + "/stdout.txt");
+    std::string line, last;
+    while (std::getline(in, line))
+      if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
+    return "could not write its outputs" + (last.empty() ? std::string() : ": " + last);
+  }
   if (r.rc != 2 && r.rc != -1 && r.rc <= 128 && !crashed_before)
     return "ended with status " + std::to_string(r.rc) + " (an internal error; see " + dir + "/stdout.txt)";
-  if (r.rc != 2) return "";
-  // biodem's own one-line error of this attempt: the last line of stdout.txt (a resumed run
-  // appends to it; the lines of earlier attempts say nothing of this one).
-  std::ifstream in(dir + "/stdout.txt");
-  std::string line, last;
-  while (std::getline(in, line))
-    if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
-  for (const char* io : {"another biodem run is writing to this folder", "write failed", "writing '", "cannot be written",
-                         "cannot write", "cannot open", "cannot create", "cannot sync", "cannot remove", "is not a file",
-                         "No space left", "Disk quota", "Read-only file system", "Permission denied",
-                         "Input/output error", "File too large"})
-    if (last.find(io) != std::string::npos) return "could not write its outputs: " + last;
   return "";
 }
 }  // namespace biodem::calib

@@ -34,8 +34,8 @@ struct TestRun {
 /// Why a test run's failure says nothing of its parameters, or "" when it may be scored: it could
 /// not be started or its folder made (rc -1), a signal other than the campaign's stop ended it
 /// (a kill, the memory limit), it ended with another status than biodem's 2 for a case or a
-/// run that failed (an internal error), or with 2 because it could not write its outputs or its
-/// folder was locked (its message, the last line of `dir`/stdout.txt). Such a failure stops the campaign
+/// run that failed (an internal error), or with 4 because it could not write its outputs or its
+/// folder was locked (the message is the last line of `dir`/stdout.txt). Such a failure stops the campaign
 /// unscored, so that --resume runs it again, instead of caching 1e9 for good.
 /// `crashed_before`: this run crashed (signal, internal error, not started) on an earlier attempt;
 /// a second crash is scored as failed. Outputs that could not be written always stop.

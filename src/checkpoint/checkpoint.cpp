@@ -275,7 +275,7 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   const std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw Error(path + ": cannot write checkpoint");
+    if (!f) throw OutputError(path + ": cannot write checkpoint");
     f.write(kMagic, sizeof kMagic);
     const std::uint32_t version = kCheckpointVersion;
     const std::uint64_t size = payload.size();
@@ -284,7 +284,7 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
     f.write(payload.data(), static_cast<std::streamsize>(payload.size()));
     f.write(reinterpret_cast<const char*>(&sum), sizeof sum);
     f.flush();
-    if (!f) throw Error(path + ": checkpoint write failed (disk full?)");
+    if (!f) throw OutputError(path + ": checkpoint write failed (disk full?)");
   }
   if (int fd = ::open(tmp.c_str(), O_RDONLY); fd >= 0) {
     ::fsync(fd);
@@ -292,7 +292,7 @@ void save_checkpoint(const std::string& path, const sim::Simulation& sim_c, cons
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
-  if (ec) throw Error(path + ": cannot rename checkpoint: " + ec.message());
+  if (ec) throw OutputError(path + ": cannot rename checkpoint: " + ec.message());
 }
 
 namespace {

@@ -11,4 +11,14 @@ class Error : public std::runtime_error {
   explicit Error(const std::string& what) : std::runtime_error(what) {}
 };
 
+/// An output that cannot be written: a folder or file of the output that cannot be created,
+/// written, synced or renamed (a full disk, permissions, a file size limit), a name of the output
+/// taken by something else, or an output folder another biodem process holds. Exit status 4
+/// instead of 2, so that scripts (and a calibration campaign's scheduler) tell a failure of the
+/// machine or the folder from a mistake in the input or what the parameters do.
+class OutputError : public Error {
+ public:
+  explicit OutputError(const std::string& what) : Error(what) {}
+};
+
 }  // namespace biodem

@@ -211,13 +211,13 @@ void Runner::check_output_names() const {
   for (const char* f : {"series.csv", "trace.csv", "run.log", "responses.csv", "snapshots.pvd", "bodies.pvd"}) {
     const fs::path p = fs::path(opt_.out_dir) / f;
     if (fs::exists(p, ec) && !fs::is_regular_file(p, ec))
-      throw Error("--out " + opt_.out_dir + ": " + p.string() + " is not a file (a folder?); remove it or choose another --out");
+      throw OutputError("--out " + opt_.out_dir + ": " + p.string() + " is not a file (a folder?); remove it or choose another --out");
   }
   if (opt_.resume)
     for (const char* d : {"snapshots", "bodies"}) {
       const fs::path p = fs::path(opt_.out_dir) / d;
       if (fs::exists(p, ec) && !fs::is_directory(p, ec))
-        throw Error("--out " + opt_.out_dir + ": " + p.string() + " is not a folder; remove it or choose another --out");
+        throw OutputError("--out " + opt_.out_dir + ": " + p.string() + " is not a folder; remove it or choose another --out");
     }
 }
 
@@ -248,7 +248,7 @@ RunSummary Runner::run() {
     // A fresh run replaces the outputs of an earlier run in the same folder: an old checkpoint must
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
     if (std::error_code ec; fs::remove(opt_.out_dir + "/checkpoint.bin", ec), ec)
-      throw Error("--out " + opt_.out_dir + ": cannot remove the old checkpoint.bin (" + ec.message() + ")");
+      throw OutputError("--out " + opt_.out_dir + ": cannot remove the old checkpoint.bin (" + ec.message() + ")");
     fs::remove(opt_.out_dir + "/trace.csv");
     fs::remove(opt_.out_dir + "/responses.csv");
     fs::remove_all(opt_.out_dir + "/snapshots");

@@ -87,12 +87,12 @@ void Runner::sample() {
 
 void Runner::check_trace() const {
   if (trace_ && !*trace_)
-    throw Error(opt_.out_dir + "/trace.csv: write failed (disk full, or a file size limit?)");
+    throw OutputError(opt_.out_dir + "/trace.csv: write failed (disk full, or a file size limit?)");
 }
 
 void Runner::check_log() {
   log_.flush();
-  if (!log_) throw Error(opt_.out_dir + "/run.log: cannot be written (disk full, or a file size limit?)");
+  if (!log_) throw OutputError(opt_.out_dir + "/run.log: cannot be written (disk full, or a file size limit?)");
 }
 
 void Runner::snapshot() {

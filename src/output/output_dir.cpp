@@ -24,19 +24,19 @@ void prepare_output_dir(const std::string& dir, const std::string& label) {
     if (!fs::is_directory(st)) throw Error(who + ": exists and is not a directory");
   } else {
     fs::create_directories(dir, ec);
-    if (ec) throw Error(who + ": cannot create directory: " + ec.message());
+    if (ec) throw OutputError(who + ": cannot create directory: " + ec.message());
   }
   const std::string probe = (fs::path(dir) / (".biodem-write-probe-" + std::to_string(::getpid()))).string();
   const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(who + ": directory is not writable: " + std::strerror(errno));
+  if (fd < 0) throw OutputError(who + ": directory is not writable: " + std::strerror(errno));
   ::close(fd);
-  if (::unlink(probe.c_str()) != 0) throw Error(who + ": cannot remove probe file " + probe + ": " + std::strerror(errno));
+  if (::unlink(probe.c_str()) != 0) throw OutputError(who + ": cannot remove probe file " + probe + ": " + std::strerror(errno));
 }
 
 void write_file_atomic(const std::string& path, const std::string& content) {
   const std::string tmp = path + ".tmp";
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(tmp + ": cannot create file: " + std::strerror(errno));
+  if (fd < 0) throw OutputError(tmp + ": cannot create file: " + std::strerror(errno));
   const char* p = content.data();
   std::size_t left = content.size();
   while (left > 0) {
@@ -46,7 +46,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
       const int err = errno;
       ::close(fd);
       ::unlink(tmp.c_str());
-      throw Error(tmp + ": cannot write: " + std::strerror(err));
+      throw OutputError(tmp + ": cannot write: " + std::strerror(err));
     }
     p += n;
     left -= static_cast<std::size_t>(n);
@@ -55,7 +55,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
     const int err = errno;
     ::close(fd);
     ::unlink(tmp.c_str());
-    throw Error(tmp + ": cannot sync to disk: " + std::strerror(err));
+    throw OutputError(tmp + ": cannot sync to disk: " + std::strerror(err));
   }
   if (::close(fd) != 0) {
     const int err = errno;
@@ -65,7 +65,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
-    throw Error(path + ": cannot rename " + tmp + " over it: " + std::strerror(err));
+    throw OutputError(path + ": cannot rename " + tmp + " over it: " + std::strerror(err));
   }
 }
 
@@ -85,12 +85,12 @@ DirLock::~DirLock() {
 DirLock lock_output_dir(const std::string& dir, bool inherited_by_children) {
   const std::string path = (fs::path(dir) / ".biodem.lock").string();
   const int fd = ::open(path.c_str(), O_RDONLY | O_CREAT | (inherited_by_children ? 0 : O_CLOEXEC), 0644);
-  if (fd < 0) throw Error("--out " + dir + ": cannot open " + path + ": " + std::strerror(errno));
+  if (fd < 0) throw OutputError("--out " + dir + ": cannot open " + path + ": " + std::strerror(errno));
   if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     if (err == EWOULDBLOCK) {
       ::close(fd);
-      throw Error("--out " + dir + ": another biodem run is writing to this folder (" + path +
+      throw OutputError("--out " + dir + ": another biodem run is writing to this folder (" + path +
                   " is locked, by a run, or a calibration campaign or one of its test runs); wait for it to "
                   "end, or choose another --out");
     }

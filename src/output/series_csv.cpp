@@ -206,7 +206,7 @@ SeriesWriter::SeriesWriter(const fs::path& path, bool append) {
     need_header = false;
   }
   out_.open(path_, append ? std::ios::app : std::ios::trunc);
-  if (!out_) throw Error("cannot open '" + path_.string() + "' for writing");
+  if (!out_) throw OutputError("cannot open '" + path_.string() + "' for writing");
   if (need_header) out_ << kSeriesHeader << '\n';
   out_.flush();
 }
@@ -236,7 +236,7 @@ void SeriesWriter::write(const SeriesRow& r) {
 void SeriesWriter::flush() {
   out_.flush();
   unflushed_ = 0;
-  if (!out_) throw Error("writing '" + path_.string() + "' failed");
+  if (!out_) throw OutputError("writing '" + path_.string() + "' failed");
 }
 
 void write_sweep_csv(const std::filesystem::path& path, const std::string& sample,
@@ -248,7 +248,7 @@ void write_sweep_csv(const std::filesystem::path& path, const std::string& sampl
     out << (with_sample ? sample + "," : "") << csv_number(r.rebound_fraction) << ','
         << csv_number(r.threshold_deg) << ',' << r.events << ',' << csv_number(r.uas_p50) << ','
         << csv_number(r.drop_p50) << ',' << csv_number(r.f_p50) << '\n';
-  if (!out) throw Error("cannot write '" + path.string() + "'");
+  if (!out) throw OutputError("cannot write '" + path.string() + "'");
 }
 
 }  // namespace biodem::output

@@ -121,7 +121,7 @@ TEST(Signals, RunIntoAFolderInUseIsRefused) {
   for (const char* how : {" --resume", ""}) {
     auto rr = run_command("flock -n " + d + "/.biodem.lock " + biodem_exe() + " run " + kCase + " --out " + d +
                           " --threads 1" + how);
-    EXPECT_EQ(rr.status, 2) << how << ": " << rr.output;
+    EXPECT_EQ(rr.status, 4) << how << ": " << rr.output;
     EXPECT_NE(rr.output.find("another biodem run is writing to this folder"), std::string::npos) << rr.output;
     EXPECT_EQ(slurp(d + "/series.csv"), series) << how;
     EXPECT_TRUE(fs::exists(d + "/checkpoint.bin")) << how;
@@ -135,7 +135,7 @@ TEST(Signals, TraceThatCannotBeWrittenStopsTheRun) {
   const std::string d = fresh_dir("sig_fsize");
   // (SIGXFSZ at its default: biodem ignores it itself; before, the run died without a word)
   auto r = run_command("bash -c \"ulimit -f 300; " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1\"");
-  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_EQ(r.status, 4) << r.output;
   EXPECT_NE(r.output.find("trace.csv: write failed"), std::string::npos) << r.output;
 }
 
@@ -147,14 +147,14 @@ TEST(Signals, RunLogThatCannotBeWrittenStopsTheRun) {
   {
     const std::string d = fresh_dir("sig_runlog_limit");
     const auto r = run_command("bash -c \"ulimit -f 1; " + biodem_exe() + " run " + kCase + " --out " + d + " --threads 1\"");
-    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_EQ(r.status, 4) << r.output;
     EXPECT_NE(r.output.find("run.log: cannot be written"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(d + "/series.csv")) << "stopped before any output";
   }
   const std::string d = fresh_dir("sig_runlog");
   fs::create_directories(d + "/run.log");
   auto r = run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1");
-  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_EQ(r.status, 4) << r.output;
   EXPECT_NE(r.output.find("run.log is not a file (a folder?)"), std::string::npos) << r.output;
   // Likewise the other outputs (before: a folder named series.csv took the series inside it, one
   // named trace.csv gave an "internal error").
@@ -162,7 +162,7 @@ TEST(Signals, RunLogThatCannotBeWrittenStopsTheRun) {
     const std::string o = fresh_dir(std::string("sig_outname_") + (f[0] == 's' ? "series" : "trace"));
     fs::create_directories(o + "/" + f);
     r = run_command(biodem_exe() + " run " + kCase + " --out " + o + " --threads 1");
-    EXPECT_EQ(r.status, 2) << f << ": " << r.output;
+    EXPECT_EQ(r.status, 4) << f << ": " << r.output;
     EXPECT_NE(r.output.find("is not a file (a folder?)"), std::string::npos) << f << ": " << r.output;
   }
   EXPECT_FALSE(fs::exists(d + "/series.csv")) << "stopped before any output";

@@ -353,7 +353,7 @@ TEST(CalibCampaign, AFailedTestScoresTheEvaluationAsFailed) {
 
 // A failure that says nothing of the parameters stops the campaign before its batch is scored,
 // with one line naming the run: a test run killed (status 128 + 9), an internal error (3), one
-// that could not write its outputs (2 with its message in stdout.txt), one that could not be
+// that could not write its outputs (4, its message in stdout.txt), one that could not be
 // started (-1). Before, each was scored 1e9 and cached, so --resume kept it for good. --resume
 // then ends with the files of an uninterrupted campaign.
 TEST(CalibCampaign, AFailureThatSaysNothingOfTheParametersStopsTheCampaignUnscored) {
@@ -367,8 +367,8 @@ TEST(CalibCampaign, AFailureThatSaysNothingOfTheParametersStopsTheCampaignUnscor
   const std::vector<Case> cases = {
       {128 + 9, "", "was ended by signal 9"},
       {3, "biodem: internal error: something\n", "ended with status 3"},
-      {2, "biodem: error: out/trace.csv: write failed (disk full, or a file size limit?)\n", "could not write its outputs"},
-      {2, "biodem: error: --out x: another biodem run is writing to this folder (x/.biodem.lock is locked)\n",
+      {4, "biodem: error: out/trace.csv: write failed (disk full, or a file size limit?)\n", "could not write its outputs"},
+      {4, "biodem: error: --out x: another biodem run is writing to this folder (x/.biodem.lock is locked)\n",
        "could not write its outputs"},
       {-1, "", "could not be started"},
   };
@@ -443,7 +443,7 @@ TEST(CalibCampaign, ARunCrashingAgainAfterAResumeIsScoredAsFailed) {
     if (j.test == 1 && j.evaluation == 5) {
       fs::create_directories(j.dir);
       std::ofstream(j.dir + "/stdout.txt") << "biodem: error: x/series.csv: writing 'x/series.csv' failed\n";
-      r.rc = 2;
+      r.rc = 4;
       r.responses.clear();
     }
     return r;

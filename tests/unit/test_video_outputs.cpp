@@ -69,9 +69,9 @@ std::string video_cmd(const fs::path& frames, const fs::path& out, const std::st
 
 void write_text(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
 
-// An exit status 2 with exactly one line, biodem's error.
-void expect_one_line_error(const test::CommandResult& r, const std::string& part) {
-  EXPECT_EQ(r.status, 2) << r.output;
+// An exit status 2 (4: an output that cannot be written) with exactly one line, biodem's error.
+void expect_one_line_error(const test::CommandResult& r, const std::string& part, int status = 2) {
+  EXPECT_EQ(r.status, status) << r.output;
   EXPECT_EQ(count_of(r.output, "\n"), 1u) << r.output;
   EXPECT_TRUE(r.output.starts_with("biodem: error: ")) << r.output;
   EXPECT_TRUE(contains(r.output, part)) << r.output;
@@ -126,7 +126,7 @@ TEST(VideoOutputs, HoldsTheOutputFolderLock) {
   {
     const output::DirLock held = output::lock_output_dir(out.string());
     const auto r = test::run_biodem(video_cmd(dir / "frames", out));
-    expect_one_line_error(r, "another biodem run is writing to this folder");
+    expect_one_line_error(r, "another biodem run is writing to this folder", 4);
     EXPECT_EQ(test::read_text(out / "series.csv"), "earlier\n");
   }
   const auto r = test::run_biodem(video_cmd(dir / "frames", out));
