@@ -204,7 +204,12 @@ int run_analyze(const AnalyzeOptions& o) {
   if (std::error_code ec; !o.sweep) fs::remove(dir / "threshold_sweep.csv", ec);
   output::write_events_csv((dir / "events.csv").string(), r);
   output::write_descriptors_csv((dir / "descriptors.csv").string(), r);
-  if (!o.no_plots) write_plots(dir, file.series, r);
+  if (!o.no_plots) {
+    // The plots draw alpha as the events were found on it: continuous across 270/-90 deg.
+    analysis::Series drawn = file.series;
+    drawn.alpha_deg = r.alpha_deg;
+    write_plots(dir, drawn, r);
+  }
 
   const auto& s = file.series;
   std::cout << "series: " << series_path.string() << " (" << s.size() << " samples; analysed "

@@ -96,6 +96,9 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
     output::Plot p;
     p.title = std::string("Event rule: ") + panel.label + " against the threshold";
     p.x_label = "threshold h (deg)";
+    // From 0, and a little past the largest threshold: the markers at either end are drawn whole.
+    p.x_min = 0.0;
+    p.x_max = 1.04 * hs.back();
     p.y_label = panel.label;
     p.note = "line: rebound fraction " + fmt(o.rebound_fraction, "%g") + "; markers: rebound fraction 0";
     p.legend = output::LegendPlace::top_right;
@@ -175,8 +178,17 @@ int run_compare(const CompareOptions& o) {
     for (std::size_t i = 1; i < samples.size(); ++i)
       if (samples[i].result.detection.threshold_deg > samples[noisiest].result.detection.threshold_deg) noisiest = i;
     fo.events.min_drop_deg = samples[noisiest].result.detection.threshold_deg;
-    rule = fmt(*fo.events.min_drop_deg, "%.3g") + " deg for every sample (the largest noise-based default: " +
-           samples[noisiest].name + ")";
+    bool all_equal = true, all_floor = true;
+    for (const auto& s : samples) {
+      all_equal = all_equal && s.result.detection.threshold_deg == *fo.events.min_drop_deg;
+      all_floor = all_floor && s.result.detection.threshold_deg == fo.events.floor_deg;
+    }
+    rule = fmt(*fo.events.min_drop_deg, "%.3g") + " deg for every sample (" +
+           (samples.size() > 1 && all_equal
+                ? std::string(all_floor ? "every sample's noise-based default is at the floor"
+                                        : "every sample's noise-based default")
+                : "the largest noise-based default: " + samples[noisiest].name) +
+           ")";
     for (auto& s : samples) {
       const std::size_t own = s.result.values[0].size();
       const double own_h = s.result.detection.threshold_deg;

@@ -17,6 +17,12 @@ std::string deg(double v) {
   o << v;
   return o.str();
 }
+std::string seconds(double v) {
+  std::ostringstream o;
+  o.precision(6);
+  o << v;
+  return o.str();
+}
 }  // namespace
 
 double rpm_from_revolution(const Series& s) {
@@ -53,6 +59,19 @@ double rpm_from_revolution(const Series& s) {
   if (best_j > best_i)
     return 60.0 * (s.revolution[best_j] - s.revolution[best_i]) / (s.time_s[best_j] - s.time_s[best_i]);
   return 60.0 * median;
+}
+
+std::size_t unwrap_alpha(std::vector<double>& a) {
+  std::size_t wraps = 0;
+  double shift = 0.0, prev = a.empty() ? 0.0 : a[0];
+  for (std::size_t i = 1; i < a.size(); ++i) {
+    const double raw = a[i];
+    if (raw - prev > 180.0) shift -= 360.0, ++wraps;
+    else if (raw - prev < -180.0) shift += 360.0, ++wraps;
+    prev = raw;
+    a[i] = raw + shift;
+  }
+  return wraps;
 }
 
 FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions& opt) {
@@ -107,7 +126,9 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   auto sub = [&](const std::vector<double>& v) {
     return v.size() == n ? std::span<const double>(v).subspan(start) : std::span<const double>{};
   };
-  res.detection = detect_events(sub(s.time_s), sub(s.revolution), sub(s.alpha_deg), res.rpm,
+  res.alpha_deg = s.alpha_deg;
+  res.alpha_wraps = unwrap_alpha(res.alpha_deg);
+  res.detection = detect_events(sub(s.time_s), sub(s.revolution), sub(res.alpha_deg), res.rpm,
                                 opt.events);
   for (auto& e : res.detection.events) {
     e.start_index += start;
@@ -128,6 +149,29 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   for (std::size_t k = 0; k < res.values.size(); ++k)
     res.distributions[k] = describe(res.values[k]);
 
+  // A bed whose centroid rises past the height of the drum axis (alpha above 180 deg, or below
+  // 0 deg on the other side) is carried round with the drum rather than avalanching: its "events"
+  // and descriptors do not describe avalanches (docs/analysis.md section 3).
+  {
+    const std::span<const double> a = sub(res.alpha_deg);
+    std::size_t k_max = 0, k_min = 0;
+    for (std::size_t k = 1; k < a.size(); ++k) {
+      if (a[k] > a[k_max]) k_max = k;
+      if (a[k] < a[k_min]) k_min = k;
+    }
+    const bool high = !a.empty() && a[k_max] > 180.0, low = !a.empty() && a[k_min] < 0.0;
+    if (high || low) {
+      const std::size_t k = high ? k_max : k_min;
+      std::string m = "the bed's centroid rose past the height of the drum axis (alpha " + deg(a[k]) + " deg at t = " +
+                      seconds(s.time_s[start + k]) + " s";
+      if (res.alpha_wraps)
+        m += "; it went over the top " + std::to_string(res.alpha_wraps) + " time" + (res.alpha_wraps == 1 ? "" : "s") +
+             ", alpha made continuous across 270/-90 deg";
+      m += "): the bed turns with the drum instead of avalanching, and its events and descriptors do not describe "
+           "avalanches";
+      res.warnings.push_back(m);
+    }
+  }
   if (res.detection.events.empty())
     res.warnings.push_back("no events found (threshold " +
                            deg(res.detection.threshold_deg) +

@@ -36,7 +36,18 @@ struct FlowabilityResult {
   std::array<std::vector<double>, 4> values;
   std::array<Distribution, 4> distributions;
   std::vector<std::string> warnings;
+  // The series' alpha made continuous (unwrap_alpha), as the events were found on it: what the
+  // plots draw. `alpha_wraps`: how many times it went past the top of the drum.
+  std::vector<double> alpha_deg;
+  std::size_t alpha_wraps = 0;
 };
+
+/// alpha = 90 deg + atan2(x_c, -y_c) lies in (-90, 270] deg (SPEC 6): a bed carried over the top
+/// of the drum (its centroid above the axis) wraps from 270 to -90 deg, which the event rule would
+/// read as a 360 deg avalanche. Makes alpha continuous: where it jumps by more than 180 deg from
+/// one sample to the next (an avalanche does not move the centroid half round the drum between
+/// two samples), it and all later samples are shifted by -+360 deg. Returns the number of wraps.
+std::size_t unwrap_alpha(std::vector<double>& alpha_deg);
 
 /// Drum speed from the slope of the revolution column (revolution = rpm t / 60 while the drum
 /// turns): the median m of (delta revolution / delta t) over the steps where the revolution

@@ -403,6 +403,13 @@ TEST(AnalysisCli, CompareUsesOneThresholdForAllSamples) {
   ASSERT_EQ(p.status, 0) << p.output;
   EXPECT_EQ(count(dir / "per" / "compare.csv", "clean"), "38");
   EXPECT_EQ(count(dir / "per" / "compare.csv", "noisy"), "19");
+  // Two noise-free samples tie at the 0.05 deg floor: the line says so instead of naming the
+  // first sample as the noisiest.
+  const auto tie = test::run_biodem("compare " + test::quote(dir / "clean") + " " + test::quote(dir / "clean") +
+                                    " --names a b --no-plots --out " + test::quote(dir / "tie"));
+  ASSERT_EQ(tie.status, 0) << tie.output;
+  EXPECT_TRUE(contains(tie.output, "0.05 deg for every sample (every sample's noise-based default is at the floor)"))
+      << tie.output;
 
   // --sweep: events against the threshold; the clean sample's 0.15 deg drops count below 0.15 deg
   // only; 7 thresholds x 5 rebound fractions per sample; plots written.

@@ -386,3 +386,50 @@ TEST(AnalysisEvents, DefaultRuleCountsAvalanchesWithReboundsOnce) {
   const auto split = detect_events(t, rev, a, kRpm, plain);
   EXPECT_EQ(split.events.size(), planted.size() + 4) << "rho = 0 splits each of the 4 avalanches";
 }
+
+// alpha lies in (-90, 270] deg: a bed carried over the top of the drum wrapped from 270 to -90
+// deg, and the event rule counted a 359.9 deg "avalanche" with a UAS of 269.9 deg, ranked by
+// compare without a word (a quick cohesive drum whose bed turned with the drum). alpha is made
+// continuous before the events are found, and such a bed is named in a warning.
+TEST(AnalysisFlowability, ABedCarriedOverTheTopIsNoAvalancheAndIsWarnedAbout) {
+  std::vector<double> up = {260.0, 269.5, -89.5, -80.0}, down = {-80.0, -89.5, 269.5, 260.0};
+  EXPECT_EQ(unwrap_alpha(up), 1u);
+  EXPECT_EQ(up, (std::vector<double>{260.0, 269.5, 270.5, 280.0}));
+  EXPECT_EQ(unwrap_alpha(down), 1u);
+  EXPECT_EQ(down, (std::vector<double>{-80.0, -89.5, -90.5, -100.0}));
+
+  // 10 rpm at 100 Hz (0.6 deg per sample): three 20 deg avalanches from 170 deg, then the bed
+  // rides with the drum from 150 deg over the top and on to 300 deg (written as -60 deg).
+  Series s;
+  double a = 150.0;
+  auto push = [&](double alpha) {
+    const std::size_t i = s.time_s.size();
+    s.time_s.push_back(0.01 * static_cast<double>(i));
+    s.revolution.push_back(0.01 * static_cast<double>(i) * 10.0 / 60.0);
+    s.alpha_deg.push_back(alpha > 270.0 ? alpha - 360.0 : alpha);
+  };
+  for (int av = 0; av < 3; ++av) {
+    while (a < 170.0) push(a += 0.6);
+    for (int k = 0; k < 5; ++k) push(a -= 4.0);
+  }
+  while (a < 300.0) push(a += 0.6);
+  ASSERT_LT(*std::min_element(s.alpha_deg.begin(), s.alpha_deg.end()), -50.0);  // the wrap is written
+  const auto res = analyze_flowability(s, FlowabilityOptions{});
+  EXPECT_EQ(res.alpha_wraps, 1u);
+  ASSERT_EQ(res.detection.events.size(), 3u);
+  for (const auto& e : res.detection.events) {
+    EXPECT_NEAR(e.drop_deg, 20.0, 0.7);
+    EXPECT_LT(e.uas_deg, 171.0);
+  }
+  std::string all;
+  for (const auto& w : res.warnings) all += w + "\n";
+  EXPECT_NE(all.find("rose past the height of the drum axis"), std::string::npos) << all;
+  EXPECT_NE(all.find("over the top 1 time"), std::string::npos) << all;
+
+  // A bed that avalanches below 180 deg gets no such warning.
+  Series below = s;
+  below.time_s.resize(100), below.revolution.resize(100), below.alpha_deg.resize(100);
+  all.clear();
+  for (const auto& w : analyze_flowability(below, FlowabilityOptions{}).warnings) all += w + "\n";
+  EXPECT_EQ(all.find("drum axis"), std::string::npos) << all;
+}
