@@ -101,7 +101,7 @@ void write_sweep(const CompareOptions& o, const analysis::FlowabilityOptions& fo
     p.x_max = 1.04 * hs.back();
     p.y_label = panel.label;
     p.note = "line: rebound fraction " + fmt(o.rebound_fraction, "%g") + "; markers: rebound fraction 0";
-    p.legend = output::LegendPlace::top_right;
+    p.legend = output::LegendPlace::automatic;  // the corner with the fewest points
     if (!panel.field) p.y_min = 0.0;
     // The chosen rebound fraction as a line per sample; rho = 0 as markers of the same colour.
     std::vector<double> rhos{o.rebound_fraction};

@@ -133,6 +133,9 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   for (auto& e : res.detection.events) {
     e.start_index += start;
     e.end_index += start;
+    // The UAS is where the bed's centroid stood, in alpha's own range (-90, 270] deg, also after
+    // the bed went over the top (the drops are differences of the continuous alpha).
+    if (res.alpha_wraps) e.uas_deg -= 360.0 * std::ceil((e.uas_deg - 270.0) / 360.0);
   }
 
   for (const auto& e : res.detection.events) {
@@ -149,28 +152,18 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   for (std::size_t k = 0; k < res.values.size(); ++k)
     res.distributions[k] = describe(res.values[k]);
 
-  // A bed whose centroid rises past the height of the drum axis (alpha above 180 deg, or below
-  // 0 deg on the other side) is carried round with the drum rather than avalanching: its "events"
-  // and descriptors do not describe avalanches (docs/analysis.md section 3).
-  {
-    const std::span<const double> a = sub(res.alpha_deg);
-    std::size_t k_max = 0, k_min = 0;
-    for (std::size_t k = 1; k < a.size(); ++k) {
-      if (a[k] > a[k_max]) k_max = k;
-      if (a[k] < a[k_min]) k_min = k;
-    }
-    const bool high = !a.empty() && a[k_max] > 180.0, low = !a.empty() && a[k_min] < 0.0;
-    if (high || low) {
-      const std::size_t k = high ? k_max : k_min;
-      std::string m = "the bed's centroid rose past the height of the drum axis (alpha " + deg(a[k]) + " deg at t = " +
-                      seconds(s.time_s[start + k]) + " s";
-      if (res.alpha_wraps)
-        m += "; it went over the top " + std::to_string(res.alpha_wraps) + " time" + (res.alpha_wraps == 1 ? "" : "s") +
-             ", alpha made continuous across 270/-90 deg";
-      m += "): the bed turns with the drum instead of avalanching, and its events and descriptors do not describe "
-           "avalanches";
-      res.warnings.push_back(m);
-    }
+  // A bed carried over the top of the drum (alpha made continuous across 270/-90 deg) turns with
+  // the drum rather than avalanching: its "events" and descriptors do not describe avalanches
+  // (docs/analysis.md section 3). (A bed lifted past 180 deg that then avalanches is not named:
+  // the quick raw drum's cohesive needles do so, with UAS up to 202 deg.)
+  if (res.alpha_wraps) {
+    std::size_t first_wrap = 1;
+    while (first_wrap < n && std::abs(s.alpha_deg[first_wrap] - s.alpha_deg[first_wrap - 1]) <= 180.0) ++first_wrap;
+    res.warnings.push_back("the bed was carried over the top of the drum " + std::to_string(res.alpha_wraps) + " time" +
+                           (res.alpha_wraps == 1 ? "" : "s") + " (first at t = " +
+                           seconds(s.time_s[std::min(first_wrap, n - 1)]) +
+                           " s; alpha made continuous across 270/-90 deg): the bed turns with the drum instead of "
+                           "avalanching, and its events and descriptors do not describe avalanches");
   }
   if (res.detection.events.empty())
     res.warnings.push_back("no events found (threshold " +
