@@ -4,8 +4,12 @@
 // tests' cases validated with every parameter at its lower and at its upper bound.
 #include <toml++/toml.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <iostream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "calib/calib_file.hpp"
 #include "case_file/case_parser.hpp"
@@ -64,6 +68,48 @@ int check_calibration(const std::string& path) {
   return 0;
 }
 
+// The calibration files beside a case or base file of a [[test]] (in its folder) that use it,
+// with the names of the tests that do, sorted by path.
+std::vector<std::pair<std::string, std::string>> calibrations_using(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::vector<std::pair<std::string, std::string>> found;
+  std::error_code ec;
+  const fs::path me = fs::weakly_canonical(fs::absolute(path, ec), ec);
+  const fs::path dir = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file(ec) && e.path().extension() == ".toml") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& f : files) {
+    try {
+      const toml::table t = toml::parse_file(f.string());
+      const toml::array* tests = t["test"].as_array();
+      if (!tests || !t.contains("parameter")) continue;
+      std::string names;
+      int count = 0;
+      for (const auto& node : *tests) {
+        const toml::table* test = node.as_table();
+        if (!test) continue;
+        for (const char* key : {"case", "base"}) {
+          const auto file = (*test)[key].value<std::string>();
+          if (!file) continue;
+          const fs::path used = fs::weakly_canonical(fs::absolute(f.parent_path() / *file, ec), ec);
+          if (used == me) {
+            const std::string name = (*test)["name"].value_or(std::string("?"));
+            if (names.find("'" + name + "'") == std::string::npos) {
+              names += std::string(names.empty() ? "" : ", ") + "'" + name + "'";
+              ++count;
+            }
+          }
+        }
+      }
+      if (count) found.emplace_back(f.string(), (count == 1 ? "test " : "tests ") + names);
+    } catch (const std::exception&) {
+    }
+  }
+  return found;
+}
+
 }  // namespace
 
 Action register_check(CLI::App& app) {
@@ -82,12 +128,19 @@ Action register_check(CLI::App& app) {
       std::cout << output::describe_case(loaded.config) << std::flush;
     } catch (const Error& e) {
       // A calibration's case file alone has no [run], its base file no phases (calibrate merges
-      // the two).
-      if (kind.fragment)
+      // the two): it is checked through the calibration files beside it that use it, or, without
+      // one, the error points to them.
+      if (!kind.fragment) throw;
+      const auto users = calibrations_using(case_path);
+      if (users.empty())
         throw Error(std::string(e.what()) +
                     " (if this is a [[test]]'s case or base file of a calibration, it is checked through its "
                     "calibration file: biodem check CALIB.toml)");
-      throw;
+      for (const auto& [calib_path, tests] : users) {
+        std::cout << case_path << ": not a case by itself, but a file of " << tests << " of the calibration "
+                  << calib_path << ", checked through it:\n";
+        check_calibration(calib_path);  // biodem::Error -> main prints it, exit 2
+      }
     }
     return 0;
   };

@@ -168,8 +168,9 @@ TEST(Calibrate, BadInputIsAOneLineErrorNamingTheKey) {
 }
 
 // `biodem check` on a calibration file checks it as calibrate does (exit 0, its tests, parameters
-// and targets printed), and on a test's case or base file alone says to check the calibration
-// file instead (before: "[campaign]: unknown top-level key" and "[run]: required table is
+// and targets printed); on a test's case or base file alone it checks the calibration files beside
+// it that use it (so that every shipped .toml passes `check`), and without one says to check the
+// calibration file (before: "[campaign]: unknown top-level key" and "[run]: required table is
 // missing" with nothing more).
 TEST(Calibrate, CheckTakesACalibrationFileAndPointsAFragmentToIt) {
   const std::string dir = source_dir() + "/cases/calibration/";
@@ -183,11 +184,31 @@ TEST(Calibrate, CheckTakesACalibrationFileAndPointsAFragmentToIt) {
   EXPECT_NE(twin.output.find("  mu_s in [0.1, 0.9]: pair.bead.bead.sliding_friction"), std::string::npos) << twin.output;
   for (const char* f : {"quick/heap.toml", "quick/base.toml", "base_raw.toml"}) {
     const auto r = run_command(biodem_exe() + " check " + dir + f);
-    EXPECT_EQ(r.status, 2) << f << ": " << r.output;
-    EXPECT_NE(r.output.find("checked through its calibration file: biodem check CALIB.toml"), std::string::npos)
+    EXPECT_EQ(r.status, 0) << f << ": " << r.output;
+    EXPECT_NE(r.output.find(std::string(f) + ": not a case by itself, but a file of test"), std::string::npos)
         << f << ": " << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_NE(r.output.find("calibration file: "), std::string::npos) << r.output;
   }
+  const auto base = run_command(biodem_exe() + " check " + dir + "base_raw.toml");
+  EXPECT_NE(base.output.find("a file of tests 'heap', 'bulk_density', 'shear_box' of the calibration " + dir +
+                             "twin_campaign_raw.toml"),
+            std::string::npos)
+      << base.output;
+  // A fragment without a calibration file beside it: one line pointing to it.
+  const std::string d = fresh_dir("check_fragment_alone");
+  fs::create_directories(d);
+  fs::copy_file(dir + "quick/heap.toml", d + "/heap.toml");
+  const auto r = run_command(biodem_exe() + " check " + d + "/heap.toml");
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("checked through its calibration file: biodem check CALIB.toml"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  // A calibration file beside it that is broken: its error, status 2.
+  std::ofstream(d + "/campaign.toml") << "[campaign]\npopulation = 8\n[[test]]\nname = \"heap\"\ncase = \"heap.toml\"\n"
+                                         "[[parameter]]\nname = \"x\"\n";
+  const auto broken = run_command(biodem_exe() + " check " + d + "/heap.toml");
+  EXPECT_EQ(broken.status, 2) << broken.output;
+  EXPECT_NE(broken.output.find("campaign.toml"), std::string::npos) << broken.output;
 }
 
 // Every shipped campaign file loads: its tests, bases, targets and parameter keys resolve, and
