@@ -72,7 +72,7 @@ output::Plot alpha_plot(const analysis::Series& s, const FlowabilityResult& r, s
   for (std::size_t k = first_event; k < last_event; ++k) {
     const auto& e = r.detection.events[k];
     starts.x.push_back(s.revolution[e.start_index]);
-    starts.y.push_back(s.alpha_deg[e.start_index]);  // (= uas_deg, but continuous across 270/-90 deg)
+    starts.y.push_back(e.uas_deg);
     ends.x.push_back(s.revolution[e.end_index]);
     ends.y.push_back(s.alpha_deg[e.end_index]);
   }

@@ -126,16 +126,19 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   auto sub = [&](const std::vector<double>& v) {
     return v.size() == n ? std::span<const double>(v).subspan(start) : std::span<const double>{};
   };
+  // alpha made continuous over the analysed samples only (the insertion and settle samples before
+  // them, or a skipped transient, may wrap without the rotating bed being carried over the top).
   res.alpha_deg = s.alpha_deg;
-  res.alpha_wraps = unwrap_alpha(res.alpha_deg);
+  {
+    std::vector<double> analysed(s.alpha_deg.begin() + static_cast<std::ptrdiff_t>(start), s.alpha_deg.end());
+    res.alpha_wraps = unwrap_alpha(analysed);
+    std::copy(analysed.begin(), analysed.end(), res.alpha_deg.begin() + static_cast<std::ptrdiff_t>(start));
+  }
   res.detection = detect_events(sub(s.time_s), sub(s.revolution), sub(res.alpha_deg), res.rpm,
                                 opt.events);
   for (auto& e : res.detection.events) {
     e.start_index += start;
     e.end_index += start;
-    // The UAS is where the bed's centroid stood, in alpha's own range (-90, 270] deg, also after
-    // the bed went over the top (the drops are differences of the continuous alpha).
-    if (res.alpha_wraps) e.uas_deg -= 360.0 * std::ceil((e.uas_deg - 270.0) / 360.0);
   }
 
   for (const auto& e : res.detection.events) {
@@ -157,13 +160,14 @@ FlowabilityResult analyze_flowability(const Series& s, const FlowabilityOptions&
   // (docs/analysis.md section 3). (A bed lifted past 180 deg that then avalanches is not named:
   // the quick raw drum's cohesive needles do so, with UAS up to 202 deg.)
   if (res.alpha_wraps) {
-    std::size_t first_wrap = 1;
+    std::size_t first_wrap = start + 1;
     while (first_wrap < n && std::abs(s.alpha_deg[first_wrap] - s.alpha_deg[first_wrap - 1]) <= 180.0) ++first_wrap;
     res.warnings.push_back("the bed was carried over the top of the drum " + std::to_string(res.alpha_wraps) + " time" +
                            (res.alpha_wraps == 1 ? "" : "s") + " (first at t = " +
                            seconds(s.time_s[std::min(first_wrap, n - 1)]) +
-                           " s; alpha made continuous across 270/-90 deg): the bed turns with the drum instead of "
-                           "avalanching, and its events and descriptors do not describe avalanches");
+                           " s; alpha made continuous across 270/-90 deg, so that UAS counts on past 270 deg): the bed "
+                           "turns with the drum instead of avalanching, and its events and descriptors do not describe "
+                           "avalanches");
   }
   if (res.detection.events.empty())
     res.warnings.push_back("no events found (threshold " +

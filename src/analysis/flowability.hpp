@@ -47,8 +47,9 @@ struct FlowabilityResult {
 /// read as a 360 deg avalanche. Makes alpha continuous: where it jumps by more than 180 deg from
 /// one sample to the next (an avalanche does not move the centroid half round the drum between
 /// two samples), it and all later samples are shifted by -+360 deg. Returns the number of wraps.
-/// analyze_flowability finds the events on the continuous alpha and gives each UAS back in
-/// (-90, 270] deg.
+/// analyze_flowability makes the analysed samples continuous and finds the events on them: a UAS
+/// after the bed went over the top counts on past 270 deg (it is not folded back, where it would
+/// read as a free-flowing bed), and the series is warned about.
 std::size_t unwrap_alpha(std::vector<double>& alpha_deg);
 
 /// Drum speed from the slope of the revolution column (revolution = rpm t / 60 while the drum

@@ -84,7 +84,7 @@ class Campaign {
     // One campaign per folder: a second one (or a --resume while the test runs of a killed one
     // still run: they hold the lock too) would run the same test folders at once, and score the
     // runs refused by their own folders' locks as failures, for good.
-    fs::create_directories(out);
+    output::prepare_output_dir(out, "--out");  // (made, writable, or one line with status 4)
     const output::DirLock lock = output::lock_output_dir(out, /*inherited_by_children=*/true);
     const CampaignSignals signals;  // SIGINT / SIGTERM stop the campaign, not just its test runs
     const std::string eval_csv = out + "/evaluations.csv", cache_csv = out + "/cache.csv";
@@ -111,7 +111,8 @@ class Campaign {
     } else if (fs::exists(eval_csv) || fs::exists(cache_csv)) {
       throw Error("--out " + out + ": holds an earlier campaign (evaluations.csv); use --resume or another folder");
     }
-    fs::create_directories(out + "/runs");
+    if (std::error_code ec; fs::create_directories(out + "/runs", ec), ec)
+      throw OutputError("--out " + out + ": cannot create the folder runs (" + ec.message() + ")");
     const std::string build = "build: " + output::build_description();
     if (!o_.resume || !fs::exists(id_file)) output::write_file_atomic(id_file, id + "\n" + build + "\n");
     log_.open(out + "/campaign.log", o_.resume ? std::ios::app : std::ios::trunc);
@@ -253,10 +254,11 @@ class Campaign {
     // again after a resume is scored as failed (its parameters crash it), so that the campaign
     // can finish.
     std::string stop;
+    bool stop_is_output = false;  // the first unscorable run could not write its outputs (status 4)
     for (std::size_t q = 0; q < jobs.size(); ++q) {
       const TestRun& r = runs[q];
       const std::string marker = jobs[q].dir + "/crashed_once";
-      const bool crash = r.rc != 0 && r.rc != 2 && !stopping_signal(r.rc);
+      const bool crash = r.rc != 0 && r.rc != 2 && r.rc != 4 && !stopping_signal(r.rc);  // (4: outputs not written)
       const bool before = crash && fs::exists(marker);
       const std::string why = unscorable_failure(r, jobs[q].dir, before);
       if (!why.empty()) {
@@ -265,6 +267,7 @@ class Campaign {
           fs::create_directories(jobs[q].dir, ec);
           std::ofstream(marker) << r.rc << "\n";
         }
+        if (stop.empty()) stop_is_output = r.rc == 4;
         if (stop.empty())
           stop = "calibrate: the test run in " + jobs[q].dir + " " + why + "; generation " +
                  std::to_string(batch.front().generation) + " is not scored; remove the cause and continue with --resume" +
@@ -278,6 +281,7 @@ class Campaign {
     if (!stop.empty()) {
       log_ << stop << "\n";
       log_.flush();
+      if (stop_is_output) throw OutputError(stop);
       throw Error(stop);
     }
     std::vector<std::map<std::string, double>> responses(batch.size());

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "core/error.hpp"
 #include "output/output_dir.hpp"
 
 extern char** environ;
@@ -156,7 +157,8 @@ TestRun run_test_process_or_throw(const std::string& biodem_exe, const std::stri
     r.started = false;
     return r;
   }
-  fs::create_directories(dir);
+  if (std::error_code ec; fs::create_directories(dir, ec), ec)
+    throw OutputError(dir + ": cannot create the test run's folder (" + ec.message() + ")");
   const auto t0 = std::chrono::steady_clock::now();
   if (!finished_run(dir, case_text, drum.has_value())) {  // a run finished before a kill is re-used as it is (deterministic)
     std::vector<std::string> args = {biodem_exe, "run", dir + "/case.toml", "--out", dir + "/out", "--threads", "1"};
@@ -219,6 +221,12 @@ TestRun run_test_process(const std::string& biodem_exe, const std::string& dir, 
   // responses.csv that cannot be read, is a failure that stops the campaign unscored)
   try {
     return run_test_process_or_throw(biodem_exe, dir, case_text, drum);
+  } catch (const OutputError& e) {  // (its folder or case.toml could not be written: as a run's status 4)
+    TestRun r;
+    r.rc = 4;
+    r.started = false;
+    r.warnings.push_back(std::string("the test run could not be made: ") + e.what());
+    return r;
   } catch (const std::exception& e) {
     TestRun r;
     r.rc = -1;
@@ -239,7 +247,9 @@ std::string unscorable_failure(const TestRun& r, const std::string& dir, bool cr
   if (r.rc == 4) {
     // Exit status 4: the run could not write its outputs (a full disk, permissions, a file size
     // limit, its folder held by another biodem process). The reason is biodem's one-line error
-    // of this attempt, the last line of stdout.txt (a resumed run appends to it).
+    // of this attempt, the last line of stdout.txt (a resumed run appends to it), or, for a run
+    // whose folder or case could not be written, why.
+    if (!r.started && !r.warnings.empty()) return "could not write its outputs: " + r.warnings.back();
     std::ifstream in(dir + "/stdout.txt");
     std::string line, last;
     while (std::getline(in, line))

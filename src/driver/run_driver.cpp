@@ -214,11 +214,18 @@ void Runner::check_output_names() const {
       throw OutputError("--out " + opt_.out_dir + ": " + p.string() + " is not a file (a folder?); remove it or choose another --out");
   }
   if (opt_.resume)
-    for (const char* d : {"snapshots", "bodies"}) {
+    for (const char* d : {"snapshots", "bodies", "frames", "speed_images"}) {
       const fs::path p = fs::path(opt_.out_dir) / d;
       if (fs::exists(p, ec) && !fs::is_directory(p, ec))
         throw OutputError("--out " + opt_.out_dir + ": " + p.string() + " is not a folder; remove it or choose another --out");
     }
+}
+
+// A folder of the run's outputs in DIR (made if missing): one line and exit status 4 if it cannot be.
+void Runner::make_output_folder(const char* name) const {
+  std::error_code ec;
+  fs::create_directories(fs::path(opt_.out_dir) / name, ec);
+  if (ec) throw OutputError("--out " + opt_.out_dir + ": cannot create the folder " + name + " (" + ec.message() + ")");
 }
 
 void Runner::stop_on_signal() {
@@ -249,20 +256,16 @@ RunSummary Runner::run() {
     // never be resumed, and stale snapshots, frames or trace would be mistaken for this run's.
     if (std::error_code ec; fs::remove(opt_.out_dir + "/checkpoint.bin", ec), ec)
       throw OutputError("--out " + opt_.out_dir + ": cannot remove the old checkpoint.bin (" + ec.message() + ")");
-    fs::remove(opt_.out_dir + "/trace.csv");
-    fs::remove(opt_.out_dir + "/responses.csv");
-    fs::remove_all(opt_.out_dir + "/snapshots");
-    fs::remove_all(opt_.out_dir + "/bodies");
-    fs::remove_all(opt_.out_dir + "/frames");
-    fs::remove_all(opt_.out_dir + "/speed_images");
-    fs::remove(opt_.out_dir + "/snapshots.pvd");  // (until the first snapshot they named the old files)
-    fs::remove(opt_.out_dir + "/bodies.pvd");
+    for (const char* old : {"trace.csv", "responses.csv", "snapshots", "bodies", "frames", "speed_images",
+                            "snapshots.pvd", "bodies.pvd"})  // (until the first snapshot the .pvd named the old files)
+      if (std::error_code ec; fs::remove_all(opt_.out_dir + "/" + old, ec), ec)
+        throw OutputError("--out " + opt_.out_dir + ": cannot remove the old " + old + " (" + ec.message() + ")");
     remove_analysis_outputs();  // (a resumed run: once its checkpoint is accepted, resume())
   }
   if (opt_.threads > 0) omp_set_num_threads(opt_.threads);
-  fs::create_directories(opt_.out_dir + "/snapshots");
-  fs::create_directories(opt_.out_dir + "/bodies");
-  if (cfg_.output.frame_every_s) fs::create_directories(opt_.out_dir + "/frames");
+  make_output_folder("snapshots");
+  make_output_folder("bodies");
+  if (cfg_.output.frame_every_s) make_output_folder("frames");
   // Speed images: by default in drum runs of builds with images (the lean build has none).
 #if BIODEM_HAVE_OPENCV
   speed_images_ = built_.drum && cfg_.output.speed_images.value_or(true);
@@ -270,7 +273,7 @@ RunSummary Runner::run() {
     speed_scale_m_s_ = case_file::speed_image_scale_m_s(cfg_);  // (the number run.log states)
     if (cfg_.output.speed_image_every_s)
       speed_image_every_ = std::max<std::uint64_t>(1, steps_for(*cfg_.output.speed_image_every_s, cfg_.run.dt_s));
-    fs::create_directories(opt_.out_dir + "/speed_images");
+    make_output_folder("speed_images");
   }
 #endif
   {

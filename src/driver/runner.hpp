@@ -76,6 +76,7 @@ class Runner {
   void after_step();
   void outputs_due();                // the sample, snapshot, frame and speed image due at this step
   void check_output_names() const;  // the files the run writes in DIR are not folders
+  void make_output_folder(const char* name) const;
   void sample();
   void snapshot();
   double revolution() const;

@@ -21,7 +21,7 @@ void prepare_output_dir(const std::string& dir, const std::string& label) {
   std::error_code ec;
   const fs::file_status st = fs::status(dir, ec);
   if (fs::exists(st)) {
-    if (!fs::is_directory(st)) throw Error(who + ": exists and is not a directory");
+    if (!fs::is_directory(st)) throw OutputError(who + ": exists and is not a directory");
   } else {
     fs::create_directories(dir, ec);
     if (ec) throw OutputError(who + ": cannot create directory: " + ec.message());
@@ -60,7 +60,7 @@ void write_file_atomic(const std::string& path, const std::string& content) {
   if (::close(fd) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
-    throw Error(tmp + ": cannot close: " + std::strerror(err));
+    throw OutputError(tmp + ": cannot close: " + std::strerror(err));
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;

@@ -4,6 +4,7 @@
 // cannot race the run; a real `kill -INT` is checked too.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -216,4 +217,36 @@ TEST(Signals, ResumeRefusesAnotherCaseAMissingOutputAndAFolder) {
   EXPECT_EQ(c.status, 2) << c.output;
   EXPECT_NE(c.output.find("not a regular file"), std::string::npos) << c.output;
   EXPECT_EQ(run_command(biodem_exe() + " run " + kCase + " --out " + d + " --threads 1 --resume").status, 0);
+}
+
+// An output folder that cannot be made, or an --out that names a file, is one line with status 4
+// (an output that cannot be written) in every command: before, `run --resume` with its frames
+// folder replaced by a file ended with "internal error: filesystem error" (status 3), `calibrate
+// --out FILE` likewise, and `run --out FILE` gave 2 where compare and video gave 4.
+TEST(Signals, OutputFoldersThatCannotBeMadeAreStatus4) {
+  const std::string d = fresh_dir("sig_outdirs");
+  fs::create_directories(d);
+  std::ofstream(d + "/afile") << "x\n";
+  for (const std::string& cmd :
+       {" run " + kCase + " --out " + d + "/afile --threads 1", " run " + kCase + " --out " + d + "/afile/sub --threads 1",
+        " calibrate " + source_dir() + "/tests/cases/calib_micro/campaign.toml --out " + d + "/afile",
+        " calibrate " + source_dir() + "/tests/cases/calib_micro/campaign.toml --out " + d + "/afile/sub"}) {
+    const auto r = run_command(biodem_exe() + cmd);
+    EXPECT_EQ(r.status, 4) << cmd << ": " << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << cmd << ": " << r.output;
+    EXPECT_EQ(r.output.rfind("biodem: error: ", 0), 0u) << cmd << ": " << r.output;
+  }
+  // A resumed run whose frames folder became a file.
+  const std::string& c = kCase;
+  const std::string o = d + "/run";
+  auto r = run_command("BIODEM_TEST_SIGNAL_AT_STEP=300 " + biodem_exe() + " run " + c + " --out " + o + " --threads 1");
+  ASSERT_EQ(r.status, 143) << r.output;
+  for (const char* folder : {"snapshots", "frames", "speed_images"}) {
+    fs::remove_all(o + "/" + folder);
+    std::ofstream(o + "/" + folder) << "x\n";
+    r = run_command(biodem_exe() + " run " + c + " --out " + o + " --threads 1 --resume");
+    EXPECT_EQ(r.status, 4) << folder << ": " << r.output;
+    EXPECT_NE(r.output.find(std::string(folder) + " is not a folder"), std::string::npos) << r.output;
+    fs::remove(o + "/" + folder);
+  }
 }

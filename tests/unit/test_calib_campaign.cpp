@@ -449,8 +449,12 @@ TEST(CalibCampaign, ARunCrashingAgainAfterAResumeIsScoredAsFailed) {
     return r;
   };
   EXPECT_THROW(calib::run_campaign(c, o), Error);
+  // (not a crash: no mark that would spend the run's one retry of a crash)
+  EXPECT_FALSE(fs::exists(w + "/runs/g0/e5/shear_box/crashed_once"));
   o.resume = true;
   EXPECT_THROW(calib::run_campaign(c, o), Error);
+  EXPECT_FALSE(fs::exists(w + "/runs/g0/e5/shear_box/crashed_once"));
+  EXPECT_EQ(slurp(w + "/campaign.log").find("crashing again"), std::string::npos);
 }
 
 // campaign.id names the build that started the campaign; a --resume by another build says in
