@@ -36,27 +36,54 @@ struct WallHit {
   Vec3 normal;          // from wall to particle
 };
 
-/// Distance of a sphere centre to the wall surface and the contact normal. For the inside of an
-/// infinite cylinder (length_m = 0, the drum mantle) the particle side is the inside; a finite
-/// cylinder (length_m > 0) is an open thin tube touched from whichever side the centre is on
-/// (inside or outside), so a lifted tube never drags outside particles in. A rectangle is a thin
-/// plate touched from either side. For a disc or a rectangle, points whose projection falls
-/// outside the face do not touch (edges are not modelled); beyond an end of a finite cylinder a
-/// sphere touches the rim circle (nearest point on it).
+/// Contact with the nearest point q of a thin plate (disc or rectangle), from either side: the
+/// overlap is r - |c - q|, continuous over the face, its rim or edges and the back, so that a
+/// sphere reaching the plate anywhere is pushed away from the point it touches.
+BIODEM_HD inline WallHit plate_hit(const Vec3& c, double r, const Vec3& q, const Vec3& face_normal, double gap) {
+  WallHit h;
+  const Vec3 dq = c - q;
+  const double g = norm(dq);
+  if (!(g < r)) return h;
+  h.gap_m = g;
+  // (a centre in the plate itself: pushed to the side it came from is unknown; the face normal)
+  h.normal = g > 0.0 ? dq / g : (gap < 0.0 ? -face_normal : face_normal);
+  h.touching = true;
+  return h;
+}
+
+/// Distance of a sphere centre to the wall surface and the contact normal. A plane has a particle
+/// side (a centre behind it by less than r is pushed back). For the inside of an infinite
+/// cylinder (length_m = 0, the drum mantle) the particle side is the inside; a finite cylinder
+/// (length_m > 0) is an open thin tube touched from whichever side the centre is on (inside or
+/// outside), so a lifted tube never drags outside particles in; beyond an end of a finite
+/// cylinder a sphere touches the rim circle (nearest point on it). A disc or a rectangle is a
+/// thin plate touched from either side at its nearest point: on the face, along the normal; past
+/// the rim or an edge, at the rim or edge (before 2026-11-28 a disc was one-sided and neither had
+/// rims or edges: a sphere sliding under a rim, or past an edge, met an overlap of up to 2 r at
+/// once and was flung off with energy it never had).
 BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r) {
   WallHit h;
   switch (w.kind) {
-    case Kind::Plane:
-    case Kind::Disc: {
+    case Kind::Plane: {
       const Vec3 d = c - w.point_m;
       h.gap_m = dot(d, w.normal);
       h.normal = w.normal;
-      if (w.kind == Kind::Disc) {
-        const Vec3 radial = d - h.gap_m * w.normal;
-        if (norm2(radial) > w.radius_m * w.radius_m) return h;
-      }
       h.touching = h.gap_m < r && h.gap_m > -r;  // sphere centre behind the wall by more than r: no contact
       return h;
+    }
+    case Kind::Disc: {
+      const Vec3 d = c - w.point_m;
+      const double g = dot(d, w.normal);
+      const Vec3 radial = d - g * w.normal;
+      const double rho2 = norm2(radial);
+      if (rho2 <= w.radius_m * w.radius_m) {  // over the face: the projection
+        if (!(g < r && g > -r)) return h;
+        h.gap_m = g < 0.0 ? -g : g;
+        h.normal = g < 0.0 ? -w.normal : w.normal;
+        h.touching = true;
+        return h;
+      }
+      return plate_hit(c, r, w.point_m + (w.radius_m / std::sqrt(rho2)) * radial, w.normal, g);
     }
     case Kind::Cylinder: {
       const Vec3 d = c - w.point_m;
@@ -90,12 +117,17 @@ BIODEM_HD inline WallHit wall_hit(const WallGeometry& w, const Vec3& c, double r
     case Kind::Rectangle: {
       const Vec3 d = c - w.point_m;
       const double g = dot(d, w.normal);
-      const double u = dot(d, w.edge_u), v = dot(d, cross(w.normal, w.edge_u));
-      if (u > w.half_u_m || u < -w.half_u_m || v > w.half_v_m || v < -w.half_v_m) return h;
-      h.gap_m = g < 0.0 ? -g : g;
-      h.normal = g < 0.0 ? -w.normal : w.normal;
-      h.touching = h.gap_m < r;
-      return h;
+      const Vec3 edge_v = cross(w.normal, w.edge_u);
+      const double u = dot(d, w.edge_u), v = dot(d, edge_v);
+      if (u <= w.half_u_m && u >= -w.half_u_m && v <= w.half_v_m && v >= -w.half_v_m) {  // over the face
+        h.gap_m = g < 0.0 ? -g : g;
+        h.normal = g < 0.0 ? -w.normal : w.normal;
+        h.touching = h.gap_m < r;
+        return h;
+      }
+      const double uc = u > w.half_u_m ? w.half_u_m : (u < -w.half_u_m ? -w.half_u_m : u);
+      const double vc = v > w.half_v_m ? w.half_v_m : (v < -w.half_v_m ? -w.half_v_m : v);
+      return plate_hit(c, r, w.point_m + uc * w.edge_u + vc * edge_v, w.normal, g);
     }
   }
   return h;
