@@ -267,9 +267,10 @@ else
   record "3l. queued list checks verified" PASS "$nq queued reads, each equal to a second read after a wait; byte-identical to (3)"
 fi
 # 3h. A kernel that faults (on a GPU it traps, which breaks the CUDA context; emulated the
-# error it would give) ends the run with one error line and status 2: not std::terminate from a
-# buffer freed during the unwinding (status 134), nor an "internal error" (status 3: a CUDA
-# error met inside Thrust and not named), nor a run that goes on, nor a fallback line (a queued
+# error it would give) ends the run with one `biodem: error: GPU engine:` line and status 3 (a
+# device fault, as an internal error): not std::terminate from a buffer freed during the
+# unwinding (status 134), nor a CUDA error met inside Thrust and not named (`biodem: internal
+# error:`), nor a run that goes on, nor a fallback line (a queued
 # check or graph given up "for the rest of the run" as if the run could go on). On a GPU also
 # with the fault met first inside a Thrust reduction (BIODEM_TEST_GPU_FAULT_IN_THRUST=1).
 fault_ok=1; fault_detail=""
@@ -279,8 +280,8 @@ for fr in $fault_runs; do
   in_thrust=0; [ "$fr" = needles_fault_thrust ] && in_thrust=1
   BIODEM_TEST_GPU_FAULT_AT_STEP=3000 BIODEM_TEST_GPU_FAULT_IN_THRUST=$in_thrust \
     run_biodem "$fr" "$needles" "$OUT/$fr" --device "$DEVICE"; sf=$?
-  fault_line=$(grep -m1 '^biodem: \(internal \)\?error: ' "$logs/$fr.txt" | cut -c1-160)
-  if [ $sf -eq 2 ] && [ -n "$fault_line" ] && ! grep -q 'terminate called\|for the rest of the run' "$logs/$fr.txt"; then
+  fault_line=$(grep -m1 '^biodem: error: GPU engine: ' "$logs/$fr.txt" | cut -c1-160)
+  if [ $sf -eq 3 ] && [ -n "$fault_line" ] && ! grep -q 'terminate called\|for the rest of the run' "$logs/$fr.txt"; then
     fault_detail="$fault_detail${fault_detail:+; }$fr: status $sf: $fault_line"
   else
     fault_ok=0; fault_detail="$fault_detail${fault_detail:+; }$fr: status $sf, see logs/$fr.txt"

@@ -72,6 +72,9 @@ int main(int argc, char** argv) {
   } catch (const biodem::OutputError& e) {
     std::cerr << "biodem: error: " << e.what() << "\n";
     return 4;
+  } catch (const biodem::InternalError& e) {
+    std::cerr << "biodem: error: " << e.what() << "\n";
+    return 3;
   } catch (const biodem::Error& e) {
     std::cerr << "biodem: error: " << e.what() << "\n";
     return 2;

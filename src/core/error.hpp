@@ -21,4 +21,12 @@ class OutputError : public Error {
   explicit OutputError(const std::string& what) : Error(what) {}
 };
 
+/// A failure that is not the input's: an internal inconsistency, or a fault of the device (the
+/// GPU engine's DeviceFault). Exit status 3, as an internal error, so that a calibration campaign
+/// takes it for a crash (retried once by --resume) instead of what its parameters do.
+class InternalError : public Error {
+ public:
+  explicit InternalError(const std::string& what) : Error(what) {}
+};
+
 }  // namespace biodem

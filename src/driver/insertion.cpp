@@ -85,7 +85,7 @@ void Runner::insert() {
             ++insertion_.fall_step;
             defer_outputs_ = insertion_.fall_step == fall_steps;
           });
-          if (a.steps == 0) throw Error("internal: the GPU engine made no step of an insertion fall");
+          if (a.steps == 0) throw InternalError("internal: the GPU engine made no step of an insertion fall");
           continue;
         }
         advance();

@@ -90,7 +90,7 @@ Runner::Runner(const case_file::LoadedCase& loaded, const RunOptions& opt)
 
 void Runner::advance(bool next_follows) {
   // (the GPU engine steps through advance_on_device, in runs of steps)
-  if (dev_) throw Error("internal: Runner::advance on the GPU engine");
+  if (dev_) throw InternalError("internal: Runner::advance on the GPU engine");
   sim_.step(next_follows && !g_stop_signal);
 }
 

@@ -62,9 +62,9 @@ LaunchSwitches launch_switches();
 /// run on the device in this process. The engine's fallbacks (a queued list check or settle poll
 /// that cannot be read, a graph that cannot be captured) rethrow it rather than go on, so the
 /// run ends with this one line.
-class DeviceFault : public Error {
+class DeviceFault : public InternalError {  // (exit status 3)
  public:
-  using Error::Error;
+  using InternalError::InternalError;
 };
 
 class DeviceEngine {

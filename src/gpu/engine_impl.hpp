@@ -693,7 +693,7 @@ class Engine final : public DeviceEngine {
   template <class T>
   void add_to(Permutation& p, Stash& st, vec<T>& a) {
     auto take = [&](int& count, vec<T>* stashes, T** live, T** stash) {
-      if (count == Permutation::kMost) throw Error("internal: more arrays of one type than a Permutation holds");
+      if (count == Permutation::kMost) throw InternalError("internal: more arrays of one type than a Permutation holds");
       vec<T>& s = stashes[count];
       if (s.size() < a.size()) s.resize(a.size());
       live[count] = raw<T>(a);
@@ -1028,7 +1028,7 @@ class Engine final : public DeviceEngine {
   vec<Vec3> wall_force_, wall_torque_;    // n_walls_ * ns() wall slots, likewise
   vec<std::uint32_t> mirror_missing_ = vec<std::uint32_t>(1, 0u);  // set by MirrorEntries if a pair's other entry is missing (read at downloads)
   [[noreturn]] static void throw_unmirrored() {
-    throw Error("internal: the GPU engine's neighbour list holds a pair in one of its two rows only (or its pair or "
+    throw InternalError("internal: the GPU engine's neighbour list holds a pair in one of its two rows only (or its pair or "
                 "wall-slot list outgrew its capacity)");
   }
   /// Both entries of every touching pair hold its history again (MirrorHistory), after steps of
@@ -2308,7 +2308,7 @@ inline void Engine::download(bool history, bool mid_step) {
       near = neighbor::pairs_missing_within_cutoff(L, s, pairs);
     }
     if (near)
-      throw Error("internal: " + std::to_string(near) +
+      throw InternalError("internal: " + std::to_string(near) +
                   " touching pairs of the device list are missing from the host list");
   }
   // Wall contacts: the touching ones with their history; the host adds the other candidates.

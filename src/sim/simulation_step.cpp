@@ -83,7 +83,7 @@ inline void release_wall_slot(WallContacts& wc, std::uint32_t slot) {
 
 void Simulation::require_not_ahead() const {
   if (ahead_)
-    throw Error("internal error: the simulation state was accessed between step(true) and the next step");
+    throw InternalError("internal error: the simulation state was accessed between step(true) and the next step");
 }
 
 void Simulation::step(bool next_follows) {

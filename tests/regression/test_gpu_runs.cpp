@@ -373,7 +373,7 @@ namespace {
 /// call: the engine names its CUDA error as its own (not "internal error"; gpu_check 3h forces
 /// that case).
 void expect_one_fault_line(const CommandResult& r) {
-  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_EQ(r.status, 3) << r.output;  // (a device fault: status 3, as an internal error)
   EXPECT_NE(r.output.find("biodem: error: GPU engine: "), std::string::npos) << r.output;
   if (gpu_device() == "gpu-emulated") {
     EXPECT_NE(r.output.find("biodem: error: GPU engine: a kernel faulted on the device"), std::string::npos)
