@@ -75,6 +75,7 @@ LoadedCase CaseParser::parse() {
   resolve_bulk_test();
   check_insertion_feasible();
   check_periodic_cells();
+  check_walls_across_periodic_axes();
   check_initial_overlaps();
   check_time_step();
   return {std::move(cfg_), std::move(warnings_)};

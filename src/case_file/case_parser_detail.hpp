@@ -123,6 +123,7 @@ class CaseParser {
   // solid than the drum's limit (poured waves are limited by the three-empty-waves rule at run time).
   void check_region_feasible() const;
   void check_periodic_cells() const;
+  void check_walls_across_periodic_axes() const;
   void check_initial_overlaps() const;
   void check_time_step();
 };

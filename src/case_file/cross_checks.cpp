@@ -247,6 +247,53 @@ void CaseParser::check_periodic_cells() const {
     }
 }
 
+// Positions along a periodic axis are not wrapped into the cell (the engines wrap only the pair
+// distances), so a wall or sink test that depends on the position along that axis would see a
+// body that crossed the boundary where it is not: it passed through a floor plate after one
+// period. Walls and sinks must not depend on it: planes and below_plane sinks with a normal
+// across the axis, infinite cylinders along it, outside_box sinks spanning the cell.
+void CaseParser::check_walls_across_periodic_axes() const {
+  if (!cfg_.domain) return;
+  for (int k = 0; k < 3; ++k) {
+    if (!cfg_.domain->periodic[k]) continue;
+    const std::string axis(1, "xyz"[k]);
+    const std::string why = ": the domain is periodic along " + axis +
+                            " ([domain].periodic), where positions are not wrapped into the cell for wall and sink "
+                            "tests (a body that crossed the boundary would pass through it)";
+    auto along = [&](const config::Vec3d& v) {  // |v_k| / |v|
+      const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      return n > 0.0 ? std::abs(v[k]) / n : 0.0;
+    };
+    for (std::size_t i = 0; i < cfg_.walls.size(); ++i) {
+      const config::Wall& w = cfg_.walls[i];
+      const std::string who = entry_path("wall", i);
+      switch (w.kind) {
+        case config::WallKind::Plane:
+          if (along(w.normal) > 1e-9) fail(who + " (plane): its normal must be perpendicular to " + axis + why);
+          break;
+        case config::WallKind::Cylinder:
+          if (w.length_m > 0.0) fail(who + " (finite cylinder): not allowed" + why);
+          if (along(w.normal) < 1.0 - 1e-12) fail(who + " (cylinder): its axis must be along " + axis + why);
+          break;
+        case config::WallKind::Disc:
+          fail(who + " (disc): not allowed" + why);
+        case config::WallKind::Rectangle:
+          fail(who + " (rectangle): not allowed" + why);
+      }
+    }
+    for (std::size_t i = 0; i < cfg_.sinks.size(); ++i) {
+      const config::Sink& s = cfg_.sinks[i];
+      const std::string who = entry_path("sink", i);
+      if (s.kind == config::SinkKind::BelowPlane && along(s.normal) > 1e-9)
+        fail(who + " (below_plane): its normal must be perpendicular to " + axis + why);
+      if (s.kind == config::SinkKind::OutsideBox &&
+          (s.min_m[k] > cfg_.domain->min_m[k] || s.max_m[k] < cfg_.domain->max_m[k]))
+        fail(who + " (outside_box): along " + axis + " it must span the periodic cell [" + num(cfg_.domain->min_m[k]) +
+             ", " + num(cfg_.domain->max_m[k]) + "]" + why);
+    }
+  }
+}
+
 void CaseParser::check_initial_overlaps() const {
   if (cfg_.run.allow_initial_overlap || cfg_.particles.empty()) return;
   const std::string hint = " (set [run] allow_initial_overlap = true to allow it)";

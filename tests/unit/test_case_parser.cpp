@@ -779,6 +779,17 @@ TEST(CaseParser, DomainRules) {
   EXPECT_ERROR_NAMES(edit(t, "periodic = [true, false, true]", "periodic = [1, 0, 1]"), "[domain].periodic");
   EXPECT_ERROR_NAMES(edit(t, "max_m = [0.01, 0.02, 0.01]", "max_m = [-0.008, 0.02, 0.01]"), "[domain].max_m",
                      "periodic length along x");
+  // Walls and sinks that depend on the position along a periodic axis are refused (positions are
+  // not wrapped for wall tests: a bead crossing x = 5 mm fell through a periodic floor plate).
+  const std::string plate = "\n[[wall]]\nkind = \"rectangle\"\nmaterial = \"steel\"\npoint_m = [0, -0.001, 0]\n"
+                            "normal = [0, 1, 0]\nu = [1, 0, 0]\nsize_m = [0.01, 0.01]\n";
+  EXPECT_ERROR_NAMES(t + plate, "[[wall]] #2 (rectangle)", "periodic along x");
+  EXPECT_ERROR_NAMES(edit(t, "normal = [0, 2, 0]", "normal = [1, 2, 0]"), "[[wall]] #1 (plane)",
+                     "perpendicular to x");
+  EXPECT_ERROR_NAMES(t + "\n[[sink]]\nkind = \"outside_box\"\nmin_m = [-0.005, -0.01, -0.02]\nmax_m = [0.02, 0.03, 0.02]\n",
+                     "[[sink]] #1 (outside_box)", "span the periodic cell");
+  EXPECT_NO_THROW(case_file::parse_case(
+      t + "\n[[sink]]\nkind = \"outside_box\"\nmin_m = [-0.02, -0.01, -0.02]\nmax_m = [0.02, 0.03, 0.02]\n", "case.toml"));
 }
 
 // The free-surface profile's bin width and wall zone (SPEC 6: configurable), in metres: positive,
