@@ -625,7 +625,8 @@ class Engine final : public DeviceEngine {
   /// face of the box), so the host state is downloaded and the host's test names the body.
   /// (A body lost across a drum's diagonal is caught once it has moved one bounding radius
   /// further along an axis, or at the next sample.) Nothing is read back otherwise.
-  void check_lost(const Box& box);
+  void check_lost(const Motion& m);
+  DeviceLostRegion device_lost_region() const;
   /// The case's [[sink]] regions (SPEC 10) and, with [run] lost_particles = "remove", its lost
   /// region, after the drift of every step whose number is a multiple of kSinkEvery (the
   /// host's step count, so a resumed run tests at the same steps): the bodies whose centre is
@@ -2010,23 +2011,53 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
   }
 }
 
-inline void Engine::check_lost(const Box& box) {
+// lost_particles = "stop": the motion read of the list check bounds the sphere centres (their
+// box, their largest distance from the drum axis). A body the host's rule finds lost has every
+// sphere within its bounding radius rb of its centre, so past the mantle radius R (its centre
+// beyond R + rb), below or above the end plates' planes, or within rb of a box face: only then
+// are the bodies counted on the device (BodyMayBeLost), and only when one may be lost is the
+// state downloaded for the host's test, which stops the run naming it. (Before 2026-11-28 the
+// box alone was tested, against R + 2 rb per axis and a box grown by rb: a body that left a box
+// by less than rb, or the drum at 45 degrees, and came back between samples went unnoticed.)
+inline void Engine::check_lost(const Motion& m) {
   const sim::LostRegion& r = host_.lost_region();
   if (r.kind == sim::LostRegion::Kind::None || r.remove) return;  // (remove: apply_sinks)
+  if (nb() == 0) return;
   double rb = 0.0;
   for (const auto& t : host_.templates()) rb = std::max(rb, t.bounding_radius_m);
+  const Box& box = m.box;
   bool out = false;
   if (r.kind == sim::LostRegion::Kind::Drum) {
-    const double lim = r.radius_m + 2.0 * rb;
-    out = box.lo.x < -lim || box.hi.x > lim || box.lo.y < -lim || box.hi.y > lim;
-    if (!r.periodic_z) out = out || box.lo.z < r.z0_m - 2.0 * rb || box.hi.z > r.z1_m + 2.0 * rb;
+    out = m.radial2 > r.radius_m * r.radius_m;
+    if (!r.periodic_z) out = out || box.lo.z < r.z0_m || box.hi.z > r.z1_m;
   } else {
     for (int k = 0; k < 3; ++k)
-      if (!r.box_periodic[k]) out = out || box.lo[k] < r.min_m[k] - rb || box.hi[k] > r.max_m[k] + rb;
+      if (!r.box_periodic[k]) out = out || box.lo[k] < r.min_m[k] + rb || box.hi[k] > r.max_m[k] - rb;
   }
   if (!out) return;
+  const std::uint32_t may_be_lost = thrust::transform_reduce(
+      exec(), thrust::counting_iterator<std::uint32_t>(0), thrust::counting_iterator<std::uint32_t>(nb()),
+      BodyMayBeLost{raw<Vec3>(b_pos_), device_lost_region()}, 0u, thrust::plus<std::uint32_t>());
+  if (may_be_lost == 0) return;
   download(false);
   host_.check_lost_bodies();  // throws, naming the body
+}
+
+inline DeviceLostRegion Engine::device_lost_region() const {
+  const sim::LostRegion& r = host_.lost_region();
+  DeviceLostRegion d;
+  d.drum = r.kind == sim::LostRegion::Kind::Drum ? 1u : 0u;
+  d.radius_m = r.radius_m;
+  d.z0_m = r.z0_m;
+  d.z1_m = r.z1_m;
+  d.periodic_z = r.periodic_z ? 1u : 0u;
+  d.min_m = r.min_m;
+  d.max_m = r.max_m;
+  for (int a = 0; a < 3; ++a) d.periodic[a] = r.box_periodic[a] ? 1u : 0u;
+  d.rb_min = 1e300;
+  for (const auto& t : host_.templates()) d.rb_min = std::min(d.rb_min, t.bounding_radius_m);
+  if (host_.templates().empty()) d.rb_min = 0.0;
+  return d;
 }
 
 inline bool Engine::apply_sinks() {
@@ -2043,22 +2074,7 @@ inline bool Engine::apply_sinks() {
     if (sinks_.size() != sinks.size()) to_device(sinks_, sinks);
     inside += count(BodyInSink{raw<Vec3>(b_pos_), raw<sim::SinkSpec>(sinks_), static_cast<std::uint32_t>(sinks_.size())});
   }
-  if (removes_lost()) {
-    const sim::LostRegion& r = host_.lost_region();
-    DeviceLostRegion d;
-    d.drum = r.kind == sim::LostRegion::Kind::Drum ? 1u : 0u;
-    d.radius_m = r.radius_m;
-    d.z0_m = r.z0_m;
-    d.z1_m = r.z1_m;
-    d.periodic_z = r.periodic_z ? 1u : 0u;
-    d.min_m = r.min_m;
-    d.max_m = r.max_m;
-    for (int a = 0; a < 3; ++a) d.periodic[a] = r.box_periodic[a] ? 1u : 0u;
-    d.rb_min = 1e300;
-    for (const auto& t : host_.templates()) d.rb_min = std::min(d.rb_min, t.bounding_radius_m);
-    if (host_.templates().empty()) d.rb_min = 0.0;
-    inside += count(BodyMayBeLost{raw<Vec3>(b_pos_), d});
-  }
+  if (removes_lost()) inside += count(BodyMayBeLost{raw<Vec3>(b_pos_), device_lost_region()});
   if (inside == 0) return false;
   // The device clock of the translating walls is that of the last step's forces, one step behind
   // the host clock here (after a drift, before the forces): kept across the upload.
@@ -2120,7 +2136,7 @@ inline void Engine::check_list() {
   motion_queued_ = false;
   if (lagged) ++waitless_checks_;
   check_motion(m, lag);
-  check_lost(m.box);
+  check_lost(m);
   const double half_skin = 0.5 * skin_;
   // Until the next check, k steps later, a sphere moves at most k dt v; twice the largest speed
   // allows for acceleration in between. The motion read is `lag` steps old: those steps count

@@ -379,6 +379,7 @@ struct Motion {
   double disp2 = 0.0, speed2 = 0.0;
   Box box;
   double unmirrored = 0.0;
+  double radial2 = 0.0;  // the largest x^2 + y^2 of a sphere centre (the drum's axis is z through the origin)
 };
 struct SphereMotion {
   SphereArrays s;
@@ -386,13 +387,15 @@ struct SphereMotion {
   BIODEM_HD Motion operator()(std::uint32_t i) const {
     const Vec3 x = s.position[i];
     const double d2 = norm2(x - s.built_at[i]);
-    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}, i == 0 && *missing ? 1.0 : 0.0};
+    return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}, i == 0 && *missing ? 1.0 : 0.0,
+                  x.x * x.x + x.y * x.y};
   }
 };
 struct MotionMax {
   BIODEM_HD Motion operator()(const Motion& a, const Motion& b) const {
     return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2,
-                  BoxUnion{}(a.box, b.box), a.unmirrored > b.unmirrored ? a.unmirrored : b.unmirrored};
+                  BoxUnion{}(a.box, b.box), a.unmirrored > b.unmirrored ? a.unmirrored : b.unmirrored,
+                  a.radial2 > b.radial2 ? a.radial2 : b.radial2};
   }
 };
 

@@ -159,6 +159,66 @@ TEST(LostParticles, DomainBoxStopsTheRunOnBothEngines) {
   EXPECT_EQ(r.status, 0) << r.output;
 }
 
+// A body that leaves the box by less than its radius and comes back between two samples: the
+// CPU engine finds it at a list build, the GPU engine at a list check (before 2026-11-28 the GPU
+// engine tested the spheres' box against the region grown by a radius, and only the samples
+// exactly, so this run ended with status 0 and nothing said). A bead thrown up at 0.305 m/s
+// peaks about 0.2 mm above the top of the box, for about 14 ms, between samples 50 ms apart.
+TEST(LostParticles, ABodyOutBrieflyByLessThanItsRadiusStopsTheRunOnBothEngines) {
+  const std::string text = R"([run]
+dt_s = 1.5e-5
+bounds_min_m = [-0.01, -0.01, -0.01]
+bounds_max_m = [0.01, 0.006, 0.01]
+
+[[material]]
+name = "bead"
+density_kg_m3 = 2550.0
+young_pa = 5.0e6
+poisson = 0.22
+
+[[pair]]
+materials = ["bead", "bead"]
+restitution = 0.3
+sliding_friction = 0.5
+
+[[shape]]
+name = "bead"
+kind = "sphere"
+diameter_m = 1.0e-3
+
+[[wall]]
+kind = "plane"
+material = "bead"
+point_m = [0.0, 0.0, 0.0]
+normal = [0.0, 1.0, 0.0]
+
+[[particle]]
+shape = "bead"
+material = "bead"
+position_m = [0.0, 0.0005, 0.0]
+
+[[particle]]
+shape = "bead"
+material = "bead"
+position_m = [0.0022, 0.0015, 0.0]
+velocity_m_s = [0.0, 0.305, 0.0]
+
+[[phase]]
+name = "throw"
+duration_s = 0.04
+
+[output]
+sample_hz = 20.0
+)";
+  for (const std::string device : {"cpu", "gpu-emulated"}) {
+    SCOPED_TRACE(device);
+    const std::string d = write_case("lost_brief_" + device, text);
+    auto r = run_command(biodem_exe() + " run " + d + "/case.toml --out " + d + "/out --threads 1 --device " + device);
+    EXPECT_EQ(r.status, 2) << r.output;
+    EXPECT_NE(r.output.find("was lost at t = 0.02"), std::string::npos) << r.output;
+  }
+}
+
 // The drum region: a body outside the mantle by more than its radius is lost; one touching the
 // mantle is not.
 namespace {
