@@ -76,6 +76,7 @@ LoadedCase CaseParser::parse() {
   check_insertion_feasible();
   check_periodic_cells();
   check_walls_across_periodic_axes();
+  check_particles_inside_bounds();
   check_initial_overlaps();
   check_time_step();
   return {std::move(cfg_), std::move(warnings_)};

@@ -124,6 +124,7 @@ class CaseParser {
   void check_region_feasible() const;
   void check_periodic_cells() const;
   void check_walls_across_periodic_axes() const;
+  void check_particles_inside_bounds() const;
   void check_initial_overlaps() const;
   void check_time_step();
 };

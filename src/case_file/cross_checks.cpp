@@ -294,6 +294,25 @@ void CaseParser::check_walls_across_periodic_axes() const {
   }
 }
 
+// An explicit particle whose centre is outside the box bodies must stay in ([run] bounds, or a
+// [domain] box along its non-periodic axes) would stop the run as lost at its first step: said
+// here, before anything runs.
+void CaseParser::check_particles_inside_bounds() const {
+  for (std::size_t i = 0; i < cfg_.particles.size(); ++i) {
+    const config::Vec3d& x = cfg_.particles[i].position_m;
+    for (int k = 0; k < 3; ++k) {
+      const std::string axis(1, "xyz"[k]);
+      if (cfg_.run.bounds_min_m && cfg_.run.bounds_max_m &&
+          (x[k] < (*cfg_.run.bounds_min_m)[k] || x[k] > (*cfg_.run.bounds_max_m)[k]))
+        fail(entry_path("particle", i) + ".position_m: " + axis + " = " + num(x[k]) +
+             " m is outside the [run] bounds box (bounds_min_m, bounds_max_m)");
+      if (!cfg_.run.bounds_min_m && cfg_.domain && !cfg_.domain->periodic[k] &&
+          (x[k] < cfg_.domain->min_m[k] || x[k] > cfg_.domain->max_m[k]))
+        fail(entry_path("particle", i) + ".position_m: " + axis + " = " + num(x[k]) + " m is outside the [domain] box");
+    }
+  }
+}
+
 void CaseParser::check_initial_overlaps() const {
   if (cfg_.run.allow_initial_overlap || cfg_.particles.empty()) return;
   const std::string hint = " (set [run] allow_initial_overlap = true to allow it)";

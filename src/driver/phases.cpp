@@ -193,6 +193,9 @@ void Runner::run_phase(const PhasePlan& p, std::size_t index, std::uint64_t star
                   static_cast<long long>(team().spin_us()));
     log_ << buf;
   }
+  if (opt_.profile && dev_)
+    log_ << "\nprofile '" << p.name << "': --profile times the CPU engine's step; on the GPU engine set "
+         << "BIODEM_GPU_PROFILE=1 (docs/gpu.md)";
   if (p.criterion) last_settled_ = below >= p.hold_steps;
   if (p.criterion)
     log_ << (below >= p.hold_steps ? " (settled: mean kinetic energy below threshold)"

@@ -377,8 +377,15 @@ RunSummary Runner::run() {
   r.spheres = sim_.spheres().size();
   const double done = static_cast<double>(r.steps - steps_at_start);
   const double rate = wall > 0 ? static_cast<double>(r.spheres) * done / wall : 0.0;
-  if (!sim_.sinks().empty())
-    log_ << "sinks removed " << sim_.removed_bodies() << " bodies, " << sim_.removed_mass_kg() << " kg\n";
+  if (!sim_.sinks().empty()) {
+    // (the removed count holds the lost bodies removed as well: named apart, not counted twice)
+    const std::uint64_t lost = sim_.lost_bodies(), sunk = sim_.removed_bodies() - std::min(lost, sim_.removed_bodies());
+    log_ << "sinks removed " << sunk << " bodies";
+    if (lost)
+      log_ << "; with the " << lost << " lost bodies removed too, " << sim_.removed_mass_kg() << " kg in all\n";
+    else
+      log_ << ", " << sim_.removed_mass_kg() << " kg\n";
+  }
   if (sim_.lost_bodies())
     log_ << "WARNING: lost bodies removed (left the drum or the [run] bounds box): " << sim_.lost_bodies()
          << (cfg_.bulk_test ? " (the bulk test's responses count them as gone)" : "") << "\n";

@@ -1053,7 +1053,19 @@ std::unique_ptr<DeviceEngine> make_engine(sim::Simulation& host) {
     throw Error("--device gpu: cannot query the CUDA device");
   if (prop.major < 8)
     throw Error(std::string("--device gpu: ") + prop.name + " has compute capability " + std::to_string(prop.major) +
-                "." + std::to_string(prop.minor) + "; this build has kernels for 8.0 and 9.0 (set CMAKE_CUDA_ARCHITECTURES)");
+                "." + std::to_string(prop.minor) + "; the GPU engine needs 8.0 or later");
+  {
+    // Whether this build holds code the device can run (a binary for its architecture, or PTX it
+    // can compile): asked before any output is made, instead of failing at the first launch.
+    cudaFuncAttributes fa{};
+    const cudaError_t fe = cudaFuncGetAttributes(&fa, for_each_index<KickDriftSpheres>);
+    (void)cudaGetLastError();
+    if (fe != cudaSuccess)
+      throw Error(std::string("--device gpu: this build has no kernels ") + prop.name + " (compute capability " +
+                  std::to_string(prop.major) + "." + std::to_string(prop.minor) + ") can run (" +
+                  cudaGetErrorString(fe) + "); rebuild with CMAKE_CUDA_ARCHITECTURES including " +
+                  std::to_string(prop.major) + std::to_string(prop.minor));
+  }
   // Programmatic launches need the kernels' wait (after_previous_kernel), which is compiled only
   // for compute_90 and later: not on an older device, nor from a build without sm_90 code (PTX
   // of an older target run on a Hopper GPU).

@@ -790,6 +790,11 @@ TEST(CaseParser, DomainRules) {
                      "[[sink]] #1 (outside_box)", "span the periodic cell");
   EXPECT_NO_THROW(case_file::parse_case(
       t + "\n[[sink]]\nkind = \"outside_box\"\nmin_m = [-0.02, -0.01, -0.02]\nmax_m = [0.02, 0.03, 0.02]\n", "case.toml"));
+  // An explicit particle outside the box (along a non-periodic axis) is refused before any step.
+  EXPECT_ERROR_NAMES(edit(t, "position_m = [0, 0.001, 0]", "position_m = [0, 0.03, 0]"), "[[particle]] #1.position_m",
+                     "outside the [domain] box");
+  EXPECT_NO_THROW(case_file::parse_case(edit(t, "position_m = [0, 0.001, 0]", "position_m = [0.015, 0.001, 0]"),
+                                        "case.toml"));  // (x is periodic)
 }
 
 // The free-surface profile's bin width and wall zone (SPEC 6: configurable), in metres: positive,
