@@ -69,14 +69,11 @@ int main(int argc, char** argv) {
   try {
     for (auto& [sub, action] : actions)
       if (sub->parsed()) return action();
-  } catch (const biodem::OutputError& e) {
-    std::cerr << "biodem: error: " << e.what() << "\n";
-    return 4;
-  } catch (const biodem::InternalError& e) {
-    std::cerr << "biodem: error: " << e.what() << "\n";
-    return 3;
   } catch (const biodem::Error& e) {
+    // 2: the input; 4: an output that cannot be written; 3: a device fault or an internal error.
     std::cerr << "biodem: error: " << e.what() << "\n";
+    if (dynamic_cast<const biodem::OutputError*>(&e)) return 4;
+    if (dynamic_cast<const biodem::InternalError*>(&e)) return 3;
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "biodem: internal error: " << e.what() << "\n";

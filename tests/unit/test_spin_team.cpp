@@ -63,14 +63,14 @@ TEST(SpinTeam, ForEachIndexInsideAJobRunsOnTheCallingThread) {
   EXPECT_FALSE(SpinTeam::in_job());
 }
 
-// A barrier holds every thread until all have arrived: what each wrote before it is seen by all
-// after it, over many rounds.
-TEST(SpinTeam, BarrierSeparatesRounds) {
-  constexpr int kThreads = 3, kRounds = 50;
-  std::vector<std::atomic<int>> value(kThreads);
+namespace {
+// `rounds` rounds of one job of `threads` threads: each writes the round number, a barrier, each
+// reads every thread's number, a barrier. Returns how many reads saw another round's number.
+int barrier_round_errors(int threads, int rounds) {
+  std::vector<std::atomic<int>> value(static_cast<std::size_t>(threads));
   std::atomic<int> errors{0};
-  team().run(kThreads, [&](int me, int n) {
-    for (int r = 1; r <= kRounds; ++r) {
+  team().run(threads, [&](int me, int n) {
+    for (int r = 1; r <= rounds; ++r) {
       value[me].store(r, std::memory_order_relaxed);
       team().barrier();
       for (int t = 0; t < n; ++t)
@@ -78,8 +78,13 @@ TEST(SpinTeam, BarrierSeparatesRounds) {
       team().barrier();
     }
   });
-  EXPECT_EQ(errors.load(), 0);
+  return errors.load();
 }
+}  // namespace
+
+// A barrier holds every thread until all have arrived: what each wrote before it is seen by all
+// after it, over many rounds.
+TEST(SpinTeam, BarrierSeparatesRounds) { EXPECT_EQ(barrier_round_errors(3, 50), 0); }
 
 // A thread held up past the team's spin (2 ms here, against 200 us) finds the others asleep at
 // the barrier or at the end of the job; they are woken when it arrives, over many rounds, and
@@ -129,21 +134,11 @@ TEST(SpinTeam, ATeamLargerThanItsCpusSpinsBriefly) {
       break;
     }
   ASSERT_EQ(sched_setaffinity(0, sizeof one, &one), 0);  // the calling thread only
-  constexpr int kThreads = 3, kRounds = 200;
-  std::vector<std::atomic<int>> value(kThreads);
-  std::atomic<int> errors{0};
-  team().run(kThreads, [&](int me, int n) {
-    for (int r = 1; r <= kRounds; ++r) {
-      value[me].store(r, std::memory_order_relaxed);
-      team().barrier();
-      for (int t = 0; t < n; ++t)
-        if (value[t].load(std::memory_order_relaxed) != r) errors.fetch_add(1);
-      team().barrier();
-    }
-  });
+  constexpr int kThreads = 3;
+  const int errors = barrier_round_errors(kThreads, 200);
   const auto spin_on_one_cpu = team().spin_us();
   ASSERT_EQ(sched_setaffinity(0, sizeof before, &before), 0);
-  EXPECT_EQ(errors.load(), 0);
+  EXPECT_EQ(errors, 0);
   EXPECT_EQ(spin_on_one_cpu, 5);
   if (CPU_COUNT(&before) >= kThreads) {
     team().run(kThreads, [](int, int) {});
