@@ -2278,7 +2278,12 @@ inline void Engine::download(bool history, bool mid_step) {
   st.clear();
   auto& L = host_.neighbor_list_mut();
   L.configure(domain_, skin_);
+  const std::size_t host_builds = L.builds();
   L.build(s);
+  // (a copy of the device's list, not a build of the run: the count a checkpoint keeps does not
+  // depend on how many downloads were made, so a run stopped by a signal and resumed ends with
+  // the checkpoint of a run that was not)
+  L.restore_bookkeeping(std::vector<Vec3>(L.built_at()), host_builds);
   std::fill(L.touching.begin(), L.touching.end(), std::uint8_t{0});
   std::fill(L.history.begin(), L.history.end(), contact::ContactHistory{});
   // Device rows name device spheres: host sphere hi has device row i = dev[hi], and an entry
