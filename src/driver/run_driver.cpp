@@ -404,7 +404,9 @@ RunSummary Runner::run() {
   if (dev_)
     log_ << "GPU runs of steps: " << dev_->graph_runs() << " launched as CUDA graphs, " << dev_->plain_runs()
          << " kernel by kernel; " << dev_->waitless_list_checks()
-         << " list checks read the motion queued before a run's last step\n";
+         << " list checks read the motion queued before a run's last step; the list guard stopped the device "
+         << dev_->guard_stops() << " times (a drift past half the skin: the steps after it taken back, the list "
+            "rebuilt there)\n";
   if (dev_) log_ << "GPU contact kernels: " << dev_->contact_kernels() << "\n";
   if (dev_) log_ << "GPU list build: " << dev_->list_build_kernel() << ", " << dev_->grouped_list_builds() << " of "
                  << dev_->list_builds() << " builds grouped\n";

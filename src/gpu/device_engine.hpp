@@ -123,6 +123,9 @@ class DeviceEngine {
   /// them started on the device, so without waiting for it (all but the first after an upload;
   /// docs/gpu.md).
   virtual std::uint64_t waitless_list_checks() const = 0;
+  /// Times the list guard stopped the device after a drift that took a sphere past half the skin
+  /// (the steps launched after it taken back, the list rebuilt there; docs/gpu.md).
+  virtual std::uint64_t guard_stops() const = 0;
   /// Removal tests (sinks, lost bodies with lost_particles = "remove": a count on the device
   /// every 10th step) made, and those that removed bodies (each a download and an upload).
   virtual std::uint64_t removal_tests() const = 0;

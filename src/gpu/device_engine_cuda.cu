@@ -200,10 +200,10 @@ inline cudaStream_t engine_stream() {
 /// Block sums of a fixed-shape tree (deterministic: the order depends only on n).
 inline constexpr std::uint32_t kSumBlock = 256;
 
-template <class F>
-__global__ void block_sums(std::uint32_t n, F f, double* partial, const std::uint32_t* halt) {
+template <class F, class H>
+__global__ void block_sums(std::uint32_t n, F f, double* partial, H halt) {
   __shared__ double buf[kSumBlock];
-  if (halt && *halt) return;  // the same for every thread of the block
+  if (halted(halt)) return;  // the same for every thread of the block (and of the launch)
   const std::uint32_t i = blockIdx.x * kSumBlock + threadIdx.x;
   buf[threadIdx.x] = i < n ? f(i) : 0.0;
   __syncthreads();
@@ -215,8 +215,9 @@ __global__ void block_sums(std::uint32_t n, F f, double* partial, const std::uin
 }
 
 /// The block sums in block order, by one thread, into out[0].
-__global__ void sum_blocks(std::uint32_t blocks, const double* partial, double* out, const std::uint32_t* halt) {
-  if (halt && *halt) return;
+template <class H>
+__global__ void sum_blocks(std::uint32_t blocks, const double* partial, double* out, H halt) {
+  if (halted(halt)) return;
   double r = 0.0;
   for (std::uint32_t b = 0; b < blocks; ++b) r = r + partial[b];
   out[0] = r;
@@ -728,8 +729,8 @@ struct System {
   /// out[0] = the sum of f(i) over i < n, left in device memory (no host wait): block sums of a
   /// fixed tree, then the block sums in order (deterministic on one device and build; not
   /// Thrust's order). `out` has sum_scratch(n) doubles.
-  template <class F>
-  static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
+  template <class F, class H>
+  static void sum_into(std::uint32_t n, const F& f, double* out, const H& halt) {
     const std::uint32_t blocks = (n + kSumBlock - 1) / kSumBlock;
     if (blocks) block_sums<<<blocks, kSumBlock, 0, engine_stream()>>>(n, f, out + 1, halt);
     sum_blocks<<<1, 1, 0, engine_stream()>>>(blocks, out + 1, out, halt);
@@ -982,6 +983,7 @@ class NamedErrorsEngine final : public DeviceEngine {
   void set_check_every(std::uint32_t steps) override { e_.set_check_every(steps); }
   std::uint64_t list_builds() const override { return e_.list_builds(); }
   std::uint64_t waitless_list_checks() const override { return e_.waitless_list_checks(); }
+  std::uint64_t guard_stops() const override { return e_.guard_stops(); }
   std::uint64_t removal_tests() const override { return e_.removal_tests(); }
   std::uint64_t removal_uploads() const override { return e_.removal_uploads(); }
   std::uint64_t graph_runs() const override { return e_.graph_runs(); }

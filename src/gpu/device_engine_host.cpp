@@ -145,8 +145,8 @@ struct System {
   /// out[0] = f(0) + ... + f(n - 1) in index order, left in device memory (no host wait): the
   /// order of the sequential reductions of exec(), so the emulated settle criterion sees the bits
   /// the host-side reduction gave before it moved to the device.
-  template <class F>
-  static void sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt);
+  template <class F, class H>
+  static void sum_into(std::uint32_t n, const F& f, double* out, const H& halt);
   /// download()'s batch of copies: here the device arrays are host memory, read in place.
   class Staging {
    public:
@@ -174,8 +174,8 @@ struct System {
 #include "gpu/engine_impl.hpp"
 
 namespace biodem::gpu::host_threads {
-template <class F>
-void System::sum_into(std::uint32_t n, const F& f, double* out, const std::uint32_t* halt) {
+template <class F, class H>
+void System::sum_into(std::uint32_t n, const F& f, double* out, const H& halt) {
   const SequentialSum<F> sum{f, n, out, halt};
   sum(0);
 }

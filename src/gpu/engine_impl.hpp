@@ -85,6 +85,14 @@ class Engine final : public DeviceEngine {
         throw Error("BIODEM_GPU_FUSE = '" + std::string(fuse) + "': expected 0 or 1");
       fuse_ = std::string(fuse) == "1";
     }
+    // BIODEM_GPU_LIST_GUARD=0: no list guard (StepFlags): a sphere past half the skin is found at
+    // the list checks only, and stops the run where the list may have given forces past it (the
+    // rule before 2026-11-28); for comparisons of speed.
+    if (const char* guard = std::getenv("BIODEM_GPU_LIST_GUARD"); guard && *guard) {
+      if (std::string(guard) != "0" && std::string(guard) != "1")
+        throw Error("BIODEM_GPU_LIST_GUARD = '" + std::string(guard) + "': expected 0 or 1");
+      guard_on_ = std::string(guard) == "1";
+    }
     // BIODEM_GPU_SORT=N: bodies sorted by cell at the list build of every upload and at every
     // N-th build after it; 0: never (the host's order throughout).
     if (const char* sort = std::getenv("BIODEM_GPU_SORT"); sort && *sort) {
@@ -265,6 +273,7 @@ class Engine final : public DeviceEngine {
   std::uint64_t fused_steps() const override { return fused_units_; }
   std::uint64_t sums_in_kick_steps() const override { return summed_in_kick_; }
   std::uint64_t waitless_list_checks() const override { return waitless_checks_; }
+  std::uint64_t guard_stops() const override { return guard_halts_; }
   std::uint64_t removal_tests() const override { return sink_tests_; }
   std::uint64_t removal_uploads() const override { return sink_removals_; }
   std::uint64_t graph_runs() const override { return graph_runs_; }
@@ -540,10 +549,10 @@ class Engine final : public DeviceEngine {
   /// names each sphere's old row; entries match by stable id). False when the bodies were
   /// already in order (nothing moved).
   bool sort_bodies();
-  /// The force kernels' arguments; `halt` as the step kernels (null: always evaluated).
-  ContactArgs contact_args(const std::uint32_t* halt);
-  /// Contact forces of every sphere; `halt` as the step kernels (null: always evaluated).
-  void compute_forces(const std::uint32_t* halt);
+  /// The force kernels' arguments; `halt` as the step kernels (Halt{}: always evaluated).
+  ContactArgs contact_args(const Halt& halt);
+  /// Contact forces of every sphere; `halt` as the step kernels (Halt{}: always evaluated).
+  void compute_forces(const Halt& halt);
   /// PairEntries alone (the sums then run in SumEntriesKickDrift).
   void launch_pair_entries(const ContactArgs& c);
   /// The two halves of a step around the list check: kick, drift and sphere update; then forces,
@@ -571,10 +580,52 @@ class Engine final : public DeviceEngine {
   void run_units(std::uint32_t units);
   /// Reads the device's settle state into settle_host_ (one small copy; waits for the device).
   void poll_settle();
-  /// The step kernels' halt flag: the settle state's in a criterion phase; null outside one
-  /// (where it is never set: end_settle clears it), so that the step kernels do not load it
-  /// before their own first loads.
-  const std::uint32_t* halt() { return settle_active_ ? &raw<SettleState>(settle_)->settled : nullptr; }
+  /// The step kernels' halt words: the settle state's flag in a criterion phase (none outside one,
+  /// where it is never set: end_settle clears it), and the list guard's (StepFlags) unless
+  /// BIODEM_GPU_LIST_GUARD=0.
+  Halt halt() {
+    return Halt{settle_active_ ? &raw<SettleState>(settle_)->settled : nullptr, guard_on_ ? raw<StepFlags>(guard_) : nullptr,
+                0u};
+  }
+  /// The same for a kernel that drifts the spheres into motion buffer `buffer` (0: the first).
+  Halt halt_writing(std::uint32_t buffer) {
+    Halt h = halt();
+    h.ignore = 1u << buffer;
+    return h;
+  }
+  /// Sphere arrays a drift writes through, into motion buffer `buffer`: with the list guard's
+  /// test (set_motion) unless the guard is off.
+  SphereArrays drift_arrays(SphereArrays s, std::uint32_t buffer) {
+    if (guard_on_) {
+      s.guard = raw<StepFlags>(guard_);
+      s.half_skin2 = 0.25 * skin_ * skin_;
+      s.buffer = buffer;
+    }
+    return s;
+  }
+  // The list guard (StepFlags; docs/gpu.md "The list guard"): on unless BIODEM_GPU_LIST_GUARD=0;
+  // its words on the device; the host's drift count when the device's was zeroed (upload); the
+  // runs of steps launched since the last check that the guard may have stopped (their first
+  // drift, units and whether they used the two motion buffers), and the guard's halts handled.
+  bool guard_on_ = true;
+  vec<StepFlags> guard_{1};
+  std::uint64_t guard_base_ = 0;
+  struct RunLaunched {
+    std::uint64_t first_drift = 0;  // drifts_ before the run
+    std::uint32_t units = 0;
+    bool two_buffers = false;
+  };
+  std::vector<RunLaunched> runs_since_check_;
+  std::uint64_t guard_halts_ = 0;
+  /// After a drift that raised the guard's flag (Motion::guard_halted): reads how many drifts the
+  /// device made (a wait), takes back the launched steps it did not make (the host's clock and
+  /// counts, `cur` of advance()), brings the motion into the first buffer if that drift wrote
+  /// the second, clears the flags, checks the motion of now (non-finite positions stop the run)
+  /// and builds the list at the positions of now, as the CPU engine's step does when a sphere has
+  /// passed half the skin. Returns the steps taken back.
+  std::uint64_t recover_from_guard();
+  /// Whether the list guard's flags are raised now (reads them: a wait); false without the guard.
+  bool guard_stopped_now();
   /// The host's walls to the device (upload, sync_walls).
   void copy_walls();
   /// Forgets the CUDA graphs (their kernels' arguments changed: buffers, walls, criterion).
@@ -601,8 +652,12 @@ class Engine final : public DeviceEngine {
   /// The list check of every `check_every_` steps (docs/gpu.md): rebuild when a sphere could
   /// move more than half the skin before the next check. It reads the motion that the steps
   /// before it queued on the device one step before their end (no wait).
-  void check_list();
-  SphereMotion motion_of_sphere() { return SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_)}; }
+  /// Returns false when the motion it read shows that the list guard stopped the device (the
+  /// caller then calls recover_from_guard; nothing else was done).
+  bool check_list();
+  SphereMotion motion_of_sphere() {
+    return SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_), guard_on_ ? raw<StepFlags>(guard_) : nullptr};
+  }
   /// The list check's reduction over the current positions (waits for it).
   Motion motion_now();
   /// Stops the run with one line if the motion shows a pair missing from a row, a non-finite
@@ -636,7 +691,10 @@ class Engine final : public DeviceEngine {
   /// list is built again and the next step checks. The CPU engine removes a body after the
   /// drift that took it into a sink, and a lost body at its next list build; here at most
   /// kSinkEvery - 1 steps later. Returns whether bodies were removed.
-  bool apply_sinks();
+  /// Sinks::guard_stopped: the device had stopped at the list guard (found before the download
+  /// that a removal makes; nothing done: the caller recovers and the test comes again).
+  enum class Sinks { none, removed, guard_stopped };
+  Sinks apply_sinks();
   static constexpr std::uint64_t kSinkEvery = 10;
   bool removes_lost() const {
     return host_.lost_region().kind != sim::LostRegion::Kind::None && host_.lost_region().remove;
@@ -1288,6 +1346,9 @@ inline void Engine::upload() {
     pack_records();  // (radii, masses, materials; SpheresFromBodies writes the motion)
   }
   launch(ns(), SpheresFromBodies{body_arrays(), sphere_arrays()});
+  guard_[0] = StepFlags{};  // (the device's drift count from 0 at the host's count of now)
+  guard_base_ = drifts_;
+  runs_since_check_.clear();
   build_list();
   forces_on_list_ = 1;     // (the host's forces, at the build positions)
   steps_until_check_ = 1;  // the first step checks
@@ -1312,7 +1373,7 @@ inline void Engine::upload() {
     const auto touch = rows_.touching;
     const auto whist = wall_history_;
     const auto wtouch = wall_touching_;
-    compute_forces(nullptr);
+    compute_forces(Halt{});
     // Keep the history of pairs that were touching before; new contacts start from zero. On the
     // device, without a round trip through the host.
     launch(static_cast<std::uint32_t>(rows_.history.size()),
@@ -1321,7 +1382,7 @@ inline void Engine::upload() {
     launch(static_cast<std::uint32_t>(wall_history_.size()),
            KeepSetupHistory{raw<contact::ContactHistory>(wall_history_), thrust::raw_pointer_cast(whist.data()),
                             raw<std::uint8_t>(wall_touching_), thrust::raw_pointer_cast(wtouch.data())});
-    launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false, nullptr});
+    launch(nb(), ReduceKick{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, false, Halt{}});
   }
   ke_sum_.assign(System::sum_scratch(nb()), 0.0);
   if (settle_active_) {  // (not expected: the run driver uploads outside criterion phases)
@@ -1346,6 +1407,9 @@ inline void Engine::check_finite() {
 }
 
 inline void Engine::build_list(const Box* known_box) {
+  // The list guard's flags concern the list being replaced: a drift past half the skin of it
+  // (the last, which no forces followed) is within the new list's reach.
+  if (guard_on_) launch(1, ClearGuardOver{raw<StepFlags>(guard_)});
   const std::uint32_t n = ns();
   if (n == 0) {  // (no rows: the pair and wall lists of a scene uploaded before must not be read)
     thrust::fill(queue(), pair_count_.begin(), pair_count_.end(), 0u);
@@ -1563,7 +1627,7 @@ inline bool Engine::sort_bodies() {
   return true;
 }
 
-inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
+inline ContactArgs Engine::contact_args(const Halt& halt) {
   ContactArgs c;
   c.s = sphere_arrays();
   c.rows = rows_.arrays();
@@ -1597,7 +1661,7 @@ inline ContactArgs Engine::contact_args(const std::uint32_t* halt) {
   return c;
 }
 
-inline void Engine::compute_forces(const std::uint32_t* halt) {
+inline void Engine::compute_forces(const Halt& halt) {
   const ContactArgs c = contact_args(halt);
   if (cohesion_) {
     if (rolling_) launch_forces<true, true>(c);
@@ -1638,7 +1702,8 @@ void Engine::launch_forces(const ContactArgs& c) {
 }
 
 inline void Engine::first_half() {
-  launch(nb(), KickDriftSpheres{body_arrays(), sphere_arrays(), 0.5 * dt_, dt_, halt(), centred_spheres_});
+  launch(nb(), KickDriftSpheres{body_arrays(), drift_arrays(sphere_arrays(), 0), 0.5 * dt_, dt_, halt_writing(0),
+                                centred_spheres_});
 }
 
 inline void Engine::second_half() {
@@ -1653,12 +1718,14 @@ inline void Engine::second_half() {
   else
     System::sum_into(nb(), InHostOrder<BodyKineticEnergy>{{body_arrays()}, slot}, ke, halt());
   launch(1, SettleUpdate{raw<SettleState>(settle_), ke, static_cast<double>(nb()), criterion_.threshold_j,
-                         criterion_.min_steps, criterion_.hold_steps});
+                         criterion_.min_steps, criterion_.hold_steps, halt()});
 }
 
 inline void Engine::fused_unit(bool from_second) {
   move_walls();
-  const ReduceKickDrift rkd{body_arrays(), sphere_arrays(), gravity_, 0.5 * dt_, dt_, halt(), centred_spheres_};
+  // (the drift writes the first motion buffer, except ForcesKickDrift's from the first below)
+  const ReduceKickDrift rkd{body_arrays(), drift_arrays(sphere_arrays(), 0), gravity_, 0.5 * dt_, dt_, halt_writing(0),
+                            centred_spheres_};
   if (fixed_sums_ && entries_ready()) {  // the order-free family: the sums inside the body kernel
     const ContactArgs c = contact_args(halt());
     const FixedSumArrays fx = fixed_arrays();
@@ -1673,10 +1740,14 @@ inline void Engine::fused_unit(bool from_second) {
     return;
   }
   if (walk_kick()) {  // row walk: the body update inside the walk, two buffers
-    ContactArgs c = contact_args(halt());
+    // One kernel reads the motion from one buffer and drifts into the other: it never reads the
+    // list guard's flag of the buffer it writes (Halt::ignore).
+    const std::uint32_t written = from_second ? 0u : 1u;
+    ContactArgs c = contact_args(halt_writing(written));
     ReduceKickDrift out = rkd;
+    out.halt = halt_writing(written);
     if (from_second) c.s = second_motion(c.s);
-    else out.s = second_motion(out.s);
+    else out.s = drift_arrays(second_motion(sphere_arrays()), 1);
     if (cohesion_) {
       if (rolling_) launch_walk_kicks<true, true>(c, out);
       else launch_walk_kicks<true, false>(c, out);
@@ -1780,13 +1851,19 @@ inline void Engine::run_units(std::uint32_t units) {
         first_half();
       }
     }
-    if (two_buffers && units % 2 == 1)
+    if (two_buffers && units % 2 == 1) {
+      // (not after a drift the list guard stopped at an earlier unit: recover_from_guard copies
+      // the buffer that drift wrote; after the last unit's, its flag moves to the first buffer)
+      Halt h = halt();
+      h.ignore = 3u;
       launch(ns(), CopySphereMotion{raw<Vec3>(s_pos2_), raw<Vec3>(s_vel2_), raw<Vec3>(s_omega2_), raw<Vec3>(s_pos_),
                                     raw<Vec3>(s_vel_), raw<Vec3>(s_omega_),
                                     records_ ? raw<SphereRecord>(s_rec2_) : nullptr,
-                                    records_ ? raw<SphereRecord>(s_rec_) : nullptr});
+                                    records_ ? raw<SphereRecord>(s_rec_) : nullptr, h});
+    }
   };
   const bool entries = entries_ready();
+  runs_since_check_.push_back(RunLaunched{drifts_, units, two_buffers});
   if (fused) fused_units_ += units;
   if (two_buffers) walk_kick_units_ += units;
   if (fused && single_spheres_ && entries && !fixed_sums_) summed_in_kick_ += units;
@@ -1899,8 +1976,22 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   first_half();
   ++drifts_;
   tick(1);
+  // The list guard stopped the device after a drift past half the skin (check_list, apply_sinks,
+  // or the read after the last forces): the steps launched after it are taken back (the host
+  // clock too), the list is built at the positions of that drift, and the steps go on from there.
+  bool checked = false;  // (recover_from_guard made the check of the step of now)
+  auto recover = [&] {
+    const std::uint64_t back = recover_from_guard();
+    if (back >= cur) throw InternalError("internal: GPU engine: the list guard took back more steps than advance made");
+    cur -= back;
+    host_.set_step_count(step0);
+    host_.set_time_s(t0);
+    tick(cur);
+  };
   for (;;) {
-    if (--steps_until_check_ == 0) {
+    if (checked) {
+      checked = false;
+    } else if (--steps_until_check_ == 0) {
       if (settle_active_) {
         // The state queued at the last step's update (no wait: the device is still on that
         // step's first half), else a waiting copy.
@@ -1926,9 +2017,10 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
           break;
         }
       }
-      check_list();
+      if (!check_list()) recover();
     }
-    if (steps_to_sink_test() == 0) apply_sinks();  // (after removals: uploaded, the next step checks)
+    // (after removals: uploaded, the next step checks; after a recovery, the test of its step)
+    while (steps_to_sink_test() == 0 && apply_sinks() == Sinks::guard_stopped) recover();
     // The next check is steps_until_check_ steps after this one; the runs of steps also end at
     // the steps that test the sinks.
     const std::uint64_t to_sinks = steps_to_sink_test() ? steps_to_sink_test() : kSinkEvery;
@@ -1938,6 +2030,13 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
       if (fixed_sums_) ++fixed_passes_;
       second_half();
       ++forces_on_list_;
+      // The drifts since the last check were within half the skin, or the guard stopped the
+      // device after one (one wait per advance): before the host reports the steps made.
+      if (guard_stopped_now()) {
+        recover();
+        checked = true;
+        continue;
+      }
       break;
     }
     run_units(static_cast<std::uint32_t>(units));
@@ -2001,7 +2100,9 @@ inline void Engine::check_motion(const Motion& m, std::uint32_t lag) {
     if (lag) throw Error("GPU engine: a sphere's position became non-finite by t = " + std::to_string(host_.time_s()) +
                          " s: the simulation became unstable (is [run].dt_s too large?" + fixed_range_hint() + ")");
   }
-  if (moved > half_skin && (lag > 0 || forces_on_list_ > 1)) {
+  // (With the list guard on, a motion past half the skin at positions the list gave forces at
+  // is one the guard stopped at: the callers recover before this.)
+  if (!guard_on_ && moved > half_skin && (lag > 0 || forces_on_list_ > 1)) {
     char buf[256];  // (%g: sub-micrometre skins and moves keep their digits)
     std::snprintf(buf, sizeof buf,
                   "GPU engine: a sphere moved %.6g m since the last neighbour-list build, more than half the skin "
@@ -2060,9 +2161,9 @@ inline DeviceLostRegion Engine::device_lost_region() const {
   return d;
 }
 
-inline bool Engine::apply_sinks() {
+inline Engine::Sinks Engine::apply_sinks() {
   const auto& sinks = host_.sinks();
-  if ((sinks.empty() && !removes_lost()) || nb() == 0) return false;
+  if ((sinks.empty() && !removes_lost()) || nb() == 0) return Sinks::none;
   ++sink_tests_;
   auto count = [this](const auto& f) {
     return thrust::transform_reduce(exec(), thrust::counting_iterator<std::uint32_t>(0),
@@ -2075,7 +2176,8 @@ inline bool Engine::apply_sinks() {
     inside += count(BodyInSink{raw<Vec3>(b_pos_), raw<sim::SinkSpec>(sinks_), static_cast<std::uint32_t>(sinks_.size())});
   }
   if (removes_lost()) inside += count(BodyMayBeLost{raw<Vec3>(b_pos_), device_lost_region()});
-  if (inside == 0) return false;
+  if (inside == 0) return Sinks::none;  // (of a state the guard may have stopped: tested again after its recovery)
+  if (guard_stopped_now()) return Sinks::guard_stopped;
   // The device clock of the translating walls is that of the last step's forces, one step behind
   // the host clock here (after a drift, before the forces): kept across the upload.
   std::vector<double> clock;
@@ -2085,13 +2187,13 @@ inline bool Engine::apply_sinks() {
   // met, the steps after it do nothing (the next check ends the run of steps): nor does this.
   if (settle_active_) {
     poll_settle();
-    if (settle_host_.settled) return false;
+    if (settle_host_.settled) return Sinks::none;
   }
   download(true, true);
   const std::size_t before = host_.bodies().size();
   host_.apply_sinks();
   if (removes_lost()) host_.check_lost_bodies();  // (removes and counts them)
-  if (host_.bodies().size() == before) return false;  // (a body between the radii: kept, nothing to upload)
+  if (host_.bodies().size() == before) return Sinks::none;  // (a body between the radii: kept, nothing to upload)
   // The kernel set chosen by timing stays: a few bodies fewer do not change which set is the
   // fastest, and an upload would time them all again (a bulk test removes bodies hundreds of
   // times). A timing under way starts again.
@@ -2105,12 +2207,12 @@ inline bool Engine::apply_sinks() {
   forces_on_list_ = 0;  // (the host's forces are of the step before: none yet at the new list's positions)
   if (n_moving_walls_) to_device(wall_clock_, clock);
   ++sink_removals_;
-  return true;
+  return Sinks::removed;
 }
 
-inline void Engine::check_list() {
+inline bool Engine::check_list() {
   steps_until_check_ = check_every_;
-  if (ns() == 0) return;
+  if (ns() == 0) return true;
   if (profile_.on) System::wait();  // (the step before it, not the check)
   const auto t0 = Clock::now();
   // The motion queued before the last step of the steps just launched (one step old, normally
@@ -2131,6 +2233,17 @@ inline void Engine::check_list() {
     }
   }
   if (!lagged) m = motion_now();
+  // The list guard: a kernel stopped after a drift past half the skin, or, in a motion queued
+  // before the last step, the drift before it passed (whose forces then stopped): the device
+  // stopped there. (In the motion of now, a flag of the last drift alone: no forces followed, and
+  // the rule below rebuilds the list, as the CPU engine does.)
+  if (m.guard_halted >= 2.0 || (lagged && m.guard_halted != 0.0)) {
+    motion_queued_ = false;
+    return false;
+  }
+  // Every drift before the one of now was within half the skin (or the motion would say so): the
+  // runs of steps before the last can no longer hold the drift the guard stops at.
+  if (runs_since_check_.size() > 1) runs_since_check_.erase(runs_since_check_.begin(), runs_since_check_.end() - 1);
   const std::uint32_t lag =
       lagged ? static_cast<std::uint32_t>(std::min<std::uint64_t>(drifts_ - motion_drifts_, 1u << 20)) : 0;
   motion_queued_ = false;
@@ -2163,6 +2276,7 @@ inline void Engine::check_list() {
     // motion saw), the motion of now is reduced and checked first, as every rebuild did before.
     if (lagged && lag > 1) {
       m = motion_now();
+      if (m.guard_halted >= 2.0) return false;
       check_motion(m, 0);
       per_step = 2.0 * dt_ * std::sqrt(m.speed2);
     }
@@ -2178,6 +2292,58 @@ inline void Engine::check_list() {
   if (per_step > 0.0)
     steps_until_check_ = static_cast<std::uint32_t>(
         std::clamp(std::floor(room / per_step), 1.0, static_cast<double>(check_every_)));
+  return true;
+}
+
+inline std::uint64_t Engine::recover_from_guard() {
+  std::vector<StepFlags> f;
+  to_host(f, guard_);  // (a wait: the device has stopped, the launches after the drift do nothing)
+  const std::uint64_t made = guard_base_ + f[0].drifts;
+  if (made > drifts_)
+    throw InternalError("internal: GPU engine: the device made " + std::to_string(made) + " drifts, the host launched " +
+                        std::to_string(drifts_));
+  const std::uint64_t back = drifts_ - made;
+  // The drift the device stopped after wrote the second motion buffer when it was the drift of
+  // an even unit of a run of ForcesKickDrift units (two buffers); the run's copy back to the
+  // first buffer (odd runs) went on only after its last unit.
+  bool copy = false;
+  for (const RunLaunched& r : runs_since_check_)
+    if (made > r.first_drift && made <= r.first_drift + r.units) {
+      const std::uint64_t j = made - r.first_drift - 1;
+      copy = r.two_buffers && j % 2 == 0 && !(r.units % 2 == 1 && j + 1 == r.units);
+    }
+  if (copy)
+    launch(ns(), CopySphereMotion{raw<Vec3>(s_pos2_), raw<Vec3>(s_vel2_), raw<Vec3>(s_omega2_), raw<Vec3>(s_pos_),
+                                  raw<Vec3>(s_vel_), raw<Vec3>(s_omega_), records_ ? raw<SphereRecord>(s_rec2_) : nullptr,
+                                  records_ ? raw<SphereRecord>(s_rec_) : nullptr, Halt{}});
+  StepFlags clear;
+  clear.drifts = f[0].drifts;
+  guard_[0] = clear;
+  drifts_ = made;
+  runs_since_check_.clear();
+  motion_queued_ = false;
+  settle_queued_ = false;
+  ++guard_halts_;
+  // The positions of now got no forces: a sphere past half the skin there is what the new list
+  // is for (forces_on_list_ 0); a non-finite one, or a pair missing from a row, stops the run.
+  forces_on_list_ = 0;
+  Motion m = motion_now();
+  check_motion(m, 0);
+  check_lost(m);
+  build_list(&m.box);
+  forces_on_list_ = 0;
+  const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
+  steps_until_check_ = per_step > 0.0 ? static_cast<std::uint32_t>(std::clamp(
+                                            std::floor(0.5 * skin_ / per_step), 1.0, static_cast<double>(check_every_)))
+                                      : check_every_;
+  return back;
+}
+
+inline bool Engine::guard_stopped_now() {
+  if (!guard_on_ || ns() == 0) return false;
+  std::vector<StepFlags> f;
+  to_host(f, guard_);
+  return f[0].stop != 0;
 }
 
 // Sums over the bodies in the host's body order (InHostOrder), whatever the device's order.

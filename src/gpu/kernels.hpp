@@ -29,6 +29,71 @@
 
 namespace biodem::gpu::BIODEM_GPU_NS {
 
+/// The list guard's words on the device (docs/gpu.md, "The list guard"; Engine::guard_): every
+/// drift compares each sphere's new centre with its centre at the last list build, and one past
+/// half the skin (or not finite) raises over[b], b the motion buffer the drift wrote (0: the
+/// first, 1: the second of ForcesKickDrift's two); the kernels after it find the flag, raise
+/// `stop` and do nothing, so the device stays after that drift, before any forces at its
+/// positions, until the host rebuilds the list there (as the CPU engine does at such a step).
+/// `drifts` counts the drifts made since the upload (at sphere 0), from which the host learns
+/// how many of the steps it launched were made.
+struct StepFlags {
+  std::uint32_t stop = 0;
+  std::uint32_t over[2] = {0u, 0u};
+  std::uint32_t unused = 0;
+  unsigned long long drifts = 0;
+};
+/// A flag written and read by the threads of one kernel (the guard's): on a GPU a plain load or
+/// store of one aligned word; on CPU threads a relaxed atomic access (no data race).
+BIODEM_HD inline std::uint32_t flag_load(const std::uint32_t* p) {
+#ifdef __CUDA_ARCH__
+  return *p;
+#else
+  return __atomic_load_n(p, __ATOMIC_RELAXED);
+#endif
+}
+BIODEM_HD inline void flag_raise(std::uint32_t* p) {
+#ifdef __CUDA_ARCH__
+  *p = 1u;
+#else
+  __atomic_store_n(p, 1u, __ATOMIC_RELAXED);
+#endif
+}
+
+/// Lowers the list guard's over flags (one thread, at a list build: the new list's positions are
+/// those of now).
+struct ClearGuardOver {
+  StepFlags* guard;
+  BIODEM_HD void operator()(std::uint32_t) const {
+    guard->over[0] = 0u;
+    guard->over[1] = 0u;
+  }
+};
+
+/// What a step kernel reads at its entry to know whether to do nothing: the settle state's flag
+/// in a criterion phase (once SettleUpdate found the criterion met, the later steps of the same
+/// advance() do nothing, so the state stays that of the step that met it), and the list guard's
+/// words (StepFlags). A kernel that raises an over flag never reads it (`ignore`): its own
+/// threads may raise it while others start, and every thread of a kernel must decide from words
+/// written before its launch, so that all decide alike. A kernel halted by an over flag raises
+/// `stop`, which every later kernel reads. Default (set-up evaluations): never halted.
+struct Halt {
+  const std::uint32_t* settled = nullptr;
+  StepFlags* guard = nullptr;
+  std::uint32_t ignore = 0;  // bit b: over[b] not read (the kernel raises it)
+};
+BIODEM_HD inline bool halted(const Halt& h) {
+  if (h.settled && *h.settled) return true;
+  if (!h.guard) return false;
+  StepFlags* g = h.guard;
+  if (flag_load(&g->stop)) return true;
+  if ((!(h.ignore & 1u) && flag_load(&g->over[0])) || (!(h.ignore & 2u) && flag_load(&g->over[1]))) {
+    flag_raise(&g->stop);
+    return true;
+  }
+  return false;
+}
+
 struct Int3 {
   std::int32_t x = 0, y = 0, z = 0;
 };
@@ -81,6 +146,11 @@ struct SphereArrays {
   double *radius, *body_mass;
   std::uint32_t *body, *material, *sid, *contacts;
   SphereRecord* record = nullptr;  // null: no records (BIODEM_GPU_RECORDS=0, the default)
+  // The list guard (StepFlags), set in the arrays a drift writes through (set_motion); null
+  // elsewhere: the guard's words, half the skin squared, and the motion buffer written.
+  StepFlags* guard = nullptr;
+  double half_skin2 = 0.0;
+  std::uint32_t buffer = 0;
 };
 
 /// A sphere's data as a contact needs it, in registers.
@@ -144,6 +214,10 @@ BIODEM_HD inline void set_motion(const SphereArrays& s, std::uint32_t i, const V
   s.position[i] = x;
   s.velocity[i] = v;
   s.omega[i] = w;
+  if (s.guard) {  // the list guard (StepFlags): past half the skin from the last build, or not finite
+    if (!(norm2(x - s.built_at[i]) <= s.half_skin2)) flag_raise(&s.guard->over[s.buffer]);
+    if (i == 0) ++s.guard->drifts;
+  }
 #ifndef BIODEM_GPU_NO_RECORD_PATHS
   if (s.record) {
     SphereRecord& r = s.record[i];
@@ -199,10 +273,6 @@ BIODEM_HD inline int image_component(std::int32_t c, int axis) {
   return static_cast<int>(static_cast<std::int8_t>((c >> (8 * axis)) & 0xff));
 }
 
-/// A halt flag read at the entry of every step kernel: once the device has found a settle
-/// criterion met (SettleUpdate), the kernels of the later steps of the same advance() do nothing,
-/// so the state stays that of the step that met it. Null (set-up evaluations): never halted.
-BIODEM_HD inline bool halted(const std::uint32_t* halt) { return halt && *halt; }
 
 /// Moves the translating walls to the time of the step whose forces follow (one thread, before
 /// each step's contact kernels): the device clock advances by dt as the host's does (t += dt,
@@ -215,7 +285,7 @@ struct MoveWalls {
   std::uint32_t n_moving;
   double* clock;
   double dt;
-  const std::uint32_t* halt;
+  Halt halt;
   BIODEM_HD void operator()(std::uint32_t) const {
     if (halted(halt)) return;
     const double t = *clock + dt;
@@ -299,7 +369,7 @@ struct KickDriftSpheres {
   BodyArrays b;
   SphereArrays s;
   double h, dt;
-  const std::uint32_t* halt;
+  Halt halt;
   bool centred = false;  // every body is one sphere at its centre (spheres_of_body)
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
@@ -380,22 +450,35 @@ struct Motion {
   Box box;
   double unmirrored = 0.0;
   double radial2 = 0.0;  // the largest x^2 + y^2 of a sphere centre (the drum's axis is z through the origin)
+  // The list guard (StepFlags), read with the motion: 2 when a kernel stopped at a raised flag
+  // (the device has stopped after a drift past half the skin), 1 when a drift raised one and no
+  // kernel has read it yet (the last drift before the motion), 0 when none; and the drifts made
+  // since the upload.
+  double guard_halted = 0.0, drifts = 0.0;
 };
 struct SphereMotion {
   SphereArrays s;
-  const std::uint32_t* missing;  // MirrorEntries' flag
+  const std::uint32_t* missing;        // MirrorEntries' flag
+  const StepFlags* guard = nullptr;    // the list guard's words (null: no guard)
   BIODEM_HD Motion operator()(std::uint32_t i) const {
     const Vec3 x = s.position[i];
     const double d2 = norm2(x - s.built_at[i]);
+    double halted_by_guard = 0.0, drifts = 0.0;
+    if (i == 0 && guard) {
+      halted_by_guard = guard->stop ? 2.0 : guard->over[0] || guard->over[1] ? 1.0 : 0.0;
+      drifts = static_cast<double>(guard->drifts);
+    }
     return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}, i == 0 && *missing ? 1.0 : 0.0,
-                  x.x * x.x + x.y * x.y};
+                  x.x * x.x + x.y * x.y, halted_by_guard, drifts};
   }
 };
 struct MotionMax {
   BIODEM_HD Motion operator()(const Motion& a, const Motion& b) const {
     return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2,
                   BoxUnion{}(a.box, b.box), a.unmirrored > b.unmirrored ? a.unmirrored : b.unmirrored,
-                  a.radial2 > b.radial2 ? a.radial2 : b.radial2};
+                  a.radial2 > b.radial2 ? a.radial2 : b.radial2,
+                  a.guard_halted > b.guard_halted ? a.guard_halted : b.guard_halted,
+                  a.drifts > b.drifts ? a.drifts : b.drifts};
   }
 };
 
@@ -1024,7 +1107,7 @@ struct ContactArgs {
   std::uint32_t n;
   double dt;
   bool wall_rolling_lab;  // EPSD2 at walls with the particle's own spin (LIGGGHTS 3.8.0)
-  const std::uint32_t* halt;
+  Halt halt;
   /// The walk by one thread holds its own sphere's data for the whole row (Forces::walk_heads<true>;
   /// BIODEM_GPU_OWN_SPHERE=1) instead of loading it again at each entry.
   bool own_sphere = false;
@@ -1934,7 +2017,7 @@ struct ReduceKick {
   Vec3 gravity;
   double h;
   bool kick;
-  const std::uint32_t* halt;
+  Halt halt;
   BIODEM_HD void operator()(std::uint32_t k) const {
     if (halted(halt)) return;
     const std::uint32_t ns = b.sphere_count[k];
@@ -1971,7 +2054,7 @@ struct ReduceKickDrift {
   SphereArrays s;
   Vec3 gravity;
   double h, dt;
-  const std::uint32_t* halt;
+  Halt halt;
   bool centred = false;  // every body is one sphere at its centre (spheres_of_body)
   /// The rest of body k's step from its force and torque: both stored, the second half kick of
   /// step c, then the half kick, drift and turn of step c + 1 in registers, the state stored once.
@@ -2191,7 +2274,14 @@ struct CopySphereMotion {
   Vec3 *position_to, *velocity_to, *omega_to;
   const SphereRecord* record = nullptr;  // and the records' (when there are records)
   SphereRecord* record_to = nullptr;
+  // At the end of a run of steps: the run's halt words without the over flags (ignore 3): the
+  // second buffer's, which the last unit's drift may have raised, does not stop the copy, and
+  // is raised for the first, which holds that motion from here (a raised first-buffer flag
+  // always stopped a kernel of the run before, which raised `stop`). Halt{}: always copies.
+  Halt halt{};
   BIODEM_HD void operator()(std::uint32_t i) const {
+    if (halted(halt)) return;
+    if (i == 0 && halt.guard && flag_load(&halt.guard->over[1])) flag_raise(&halt.guard->over[0]);
     position_to[i] = position[i];
     velocity_to[i] = velocity[i];
     omega_to[i] = omega[i];
@@ -2451,7 +2541,7 @@ struct PairEntriesFixed : ContactArgs {
 struct TakeFixedSums {
   FixedSumArrays fx;
   SphereArrays s;
-  const std::uint32_t* halt;
+  Halt halt;
   BIODEM_HD void operator()(std::uint32_t i) const {
     if (halted(halt)) return;
     Vec3 f, t;
@@ -2551,8 +2641,9 @@ struct SettleUpdate {
   double bodies;
   double threshold;
   std::uint64_t min_steps, hold_steps;
+  Halt halt{};  // (the list guard's: a step it stopped is not counted)
   BIODEM_HD void operator()(std::uint32_t) const {
-    if (st->settled) return;
+    if (st->settled || halted(halt)) return;
     const double mean = bodies > 0.0 ? *ke / bodies : 0.0;
     st->k += 1;
     st->below = mean < threshold ? st->below + 1 : 0;
@@ -2568,7 +2659,7 @@ struct SequentialSum {
   F f;
   std::uint32_t n;
   double* out;
-  const std::uint32_t* halt;
+  Halt halt;
   BIODEM_HD void operator()(std::uint32_t) const {
     if (halted(halt)) return;
     double r = 0.0;

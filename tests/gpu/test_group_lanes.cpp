@@ -867,7 +867,7 @@ TEST(RowWalkLanes, EntrySumsByLanesGiveTheBitsOfSumEntries) {
     a.wall_touching = wall_touching.data();
     a.n_walls = walls;
     a.n = n;
-    a.halt = nullptr;
+    a.halt = Halt{};
     return a;
   };
   std::vector<Vec3> f1(n), t1(n);
@@ -957,7 +957,7 @@ struct MadeUpClumps {
     r.gravity = Vec3{0, -9.81, 0};
     r.h = 0.5e-5;
     r.dt = 1e-5;
-    r.halt = nullptr;
+    r.halt = Halt{};
     r.centred = false;
     return r;
   }
