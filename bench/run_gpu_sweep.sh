@@ -92,7 +92,9 @@ fi
 results="$OUT/sweep.csv"
 rm -f "$OUT/profile.txt"
 echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_per_s,dt_s,three_revolutions_h,timed_list_builds" > "$results"
-# (most telling first, so that a sweep cut short by its time limit keeps them: the default's
+# (most telling first, so that a sweep cut short by its time limit keeps them: the default
+# without the list guard (BIODEM_GPU_LIST_GUARD=0, since 2026-11-28: what the guard's test in
+# every drift, its flag loads in every step kernel and its wait per advance cost); the default's
 # timed choice without the candidate sets built after lease 11 (the packed walks and the body
 # kernel by lanes; the difference to the default is what they gave through it); the walk with
 # the body update forced and apart (on the raw drum the clumps' ForcesKickDriftGroups, not yet
@@ -105,10 +107,10 @@ echo "setting,engine,case,spheres,timed_steps,wall_s,us_per_step,sphere_steps_pe
 # steps between checks, which changed nothing on 2026-11-26, the skins, the row walk with 2, 4
 # (BIODEM_GPU_FORCES=rows) or 8 lanes and the build by one thread per row, measured in every
 # lease of 2026-11-26 and 27, BIODEM_GPU_QUEUED_CHECK=0 (likewise) and the one-thread walk
-# holding its own sphere alone, are left to SWEEP_SETTINGS: 28
-# settings, about 210 s on the H100 as lease 9's 23 took 170)
+# holding its own sphere alone, are left to SWEEP_SETTINGS: 29
+# settings, about 220 s on the H100 as lease 9's 23 took 170)
 # (a setting may set several variables, joined by "+"; so no value may contain "+")
-settings=${SWEEP_SETTINGS-default BIODEM_GPU_WALK_PACK=0+BIODEM_GPU_BODY_LANES=1 \
+settings=${SWEEP_SETTINGS-default BIODEM_GPU_LIST_GUARD=0 BIODEM_GPU_WALK_PACK=0+BIODEM_GPU_BODY_LANES=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=1 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0 \
   BIODEM_GPU_FORCES=rows+BIODEM_GPU_ROW_LANES=1+BIODEM_GPU_WALK_KICK=0+BIODEM_GPU_WALK_PACK=1 \

@@ -209,10 +209,13 @@ TEST(GpuEngine, BeadFasterThanHalfTheSkinPerStepMatchesCpu) {
 // A sphere outrunning the list check's prediction: two beads overlapping by 0.3 mm at rest push
 // apart at 29,000 m/s^2. The first check (after one step) sees 5.7 mm/s and, allowing for twice
 // that speed, sets the next check 10 steps later; each bead passes half the 0.1 um skin (50 nm)
-// before it. The list guard stops the device after the drift that takes a bead past half the
-// skin (before any forces there), the host takes back the steps launched after it and builds the
-// list at that drift's positions, as the CPU engine does at such a step: the GPU engine follows
-// the CPU engine (before 2026-11-28 the run stopped, asking for a larger skin). In every kernel
+// before it. A third bead waits 0.12 um from the right one, beyond the skin: outside the list
+// built at the start, reached within 16 steps. The list guard stops the device after the drift
+// that takes a bead past half the skin (before any forces there), the host takes back the steps
+// launched after it and builds the list at that drift's positions (now with the third bead), as
+// the CPU engine does at such a step: the GPU engine follows the CPU engine (before 2026-11-28
+// the run stopped, asking for a larger skin; without the guard's flag, the third bead's contact
+// is missed for steps and the trajectories part: mutant 50). In every kernel
 // family (the fused kick-drift, the separate kernels of a criterion phase, the row walk, the
 // entry kernels, the row walk with the body update and its two motion buffers, the order-free
 // sums), with queued and waiting checks, for beads and for two-sphere clumps, and with several
@@ -254,6 +257,7 @@ TEST(GpuEngine, SphereOutrunningTheListCheckIsCaughtByTheGuardAndFollowsCpu) {
       for (auto* s : {&cpu, &gs}) {
         add_particle(*s, 0, {-0.85e-3, 0, 0});
         add_particle(*s, 0, {0.85e-3, 0, 0});
+        add_particle(*s, 0, {2.85e-3 + 1.2e-7, 0, 0});
         s->set_skin(1e-7);
       }
       auto eng = gpu_engine_checks(gs, queued);
@@ -278,9 +282,10 @@ TEST(GpuEngine, SphereOutrunningTheListCheckIsCaughtByTheGuardAndFollowsCpu) {
       const Vec3 va_c = cpu.bodies().velocity_m_s[0], va_g = gs.bodies().velocity_m_s[0];
       stops += eng->guard_stops();
       ++scenes;
-      // The bodies separated (1.6 m/s each after the push, beads and clumps): a sign or a missed
-      // contact shows.
+      // The bodies separated (1.6 m/s each after the push, beads and clumps) and the third was
+      // struck: a sign or a missed contact shows.
       EXPECT_LT(va_c.x, -0.5);
+      EXPECT_GT(cpu.bodies().velocity_m_s[2].x, 0.05);
       // (every 3 steps, the checks' rule keeps up with the push: no stop is needed)
       if (check_every >= 10) {
         EXPECT_GT(eng->guard_stops(), 0u) << "the guard must have stopped the device";
@@ -290,6 +295,7 @@ TEST(GpuEngine, SphereOutrunningTheListCheckIsCaughtByTheGuardAndFollowsCpu) {
       const double tol = fixed ? 1e-9 : 1e-12;
       EXPECT_LT(norm(va_g - va_c), tol * norm(va_c));
       EXPECT_LT(norm(gs.bodies().velocity_m_s[1] - cpu.bodies().velocity_m_s[1]), tol * norm(va_c));
+      EXPECT_LT(norm(gs.bodies().velocity_m_s[2] - cpu.bodies().velocity_m_s[2]), tol * norm(va_c));
       EXPECT_LT(worst_position_gap(cpu, gs), fixed ? 1e-12 : 1e-15);
       EXPECT_LT(norm(gs.bodies().angular_velocity_rad_s[0] - cpu.bodies().angular_velocity_rad_s[0]),
                 (fixed ? 1e-9 : 1e-12) * (1.0 + norm(cpu.bodies().angular_velocity_rad_s[0])));
@@ -300,7 +306,7 @@ TEST(GpuEngine, SphereOutrunningTheListCheckIsCaughtByTheGuardAndFollowsCpu) {
 
 // The same beads with BIODEM_GPU_LIST_GUARD=0 (no guard; for comparisons of speed): the list
 // check finds a bead past half the skin at positions the list gave forces at and stops the run,
-// naming the displacement (the rule before the guard).
+// naming the displacement (the rule before the guard; mutant 42).
 TEST(GpuEngine, WithoutTheGuardASphereOutrunningTheListCheckStopsTheRun) {
   for (const char* queued : {"1", "0"}) {
     SCOPED_TRACE(std::string("BIODEM_GPU_QUEUED_CHECK=") + queued);
@@ -323,6 +329,48 @@ TEST(GpuEngine, WithoutTheGuardASphereOutrunningTheListCheckStopsTheRun) {
     }
     EXPECT_EQ(eng->guard_stops(), 0u);
   }
+  // And a new list made between two checks at the positions of now must not hide it: a removal's
+  // upload (a third bead inside a sink, removal test at step 10), a download with the history
+  // after 10 steps (a checkpoint, or the end of a run), and a download without it then an upload.
+  // The run stops there as the next check would have (mutants 46, 48).
+  for (const char* mode : {"removal", "checkpoint", "upload"})
+    for (const char* queued : {"1", "0"}) {
+      SCOPED_TRACE(std::string(mode) + ", BIODEM_GPU_QUEUED_CHECK=" + queued);
+      const bool sink = std::string(mode) == "removal";
+      SimSetup su = bead_setup(0.5, 0.3);
+      sim::Simulation gs = make_simulation(su);
+      add_particle(gs, 0, {-0.85e-3, 0, 0});
+      add_particle(gs, 0, {0.85e-3, 0, 0});
+      if (sink) {
+        sim::SinkSpec k;
+        k.point_m = {0.0, -5e-3, 0.0};
+        gs.add_sink(k);
+        add_particle(gs, 0, {0, -10e-3, 0});
+      }
+      gs.set_skin(1e-7);
+      ::setenv("BIODEM_GPU_LIST_GUARD", "0", 1);
+      auto eng = gpu_engine_checks(gs, queued);
+      ::unsetenv("BIODEM_GPU_LIST_GUARD");
+      eng->upload();
+      if (!sink) {
+        ASSERT_EQ(eng->advance(10).steps, 10u) << "no check stops the run by step 10";
+      }
+      try {
+        if (sink) {
+          eng->advance(10);
+        } else {
+          const bool checkpoint = std::string(mode) == "checkpoint";
+          eng->download(checkpoint);
+          if (!checkpoint) eng->upload();
+        }
+        ADD_FAILURE() << "a new list must not hide a sphere past half the skin at positions the list gave forces at";
+      } catch (const Error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("more than half the skin (5e-08 m)"), std::string::npos) << what;
+        EXPECT_NE(what.find("contacts may have been missed"), std::string::npos) << what;
+      }
+      EXPECT_EQ(eng->removal_uploads(), 0u);
+    }
 }
 
 // The same beads, and a new list made between two checks at the positions of now: a removal's
