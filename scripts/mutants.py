@@ -83,6 +83,8 @@ M = {
  "51": ("GPU: the steps launched after a guard's stop are not taken back", [("src/gpu/engine_impl.hpp", "    cur -= back;\n", "    (void)back;\n", 1)]),
  "52": ("GPU: after a guard's stop, a drift into the second motion buffer is not copied back", [("src/gpu/engine_impl.hpp", "      copy = r.two_buffers && j % 2 == 0", "      copy = false && j % 2 == 0", 1)]),
  "53": ("GPU: the end of an advance does not read the list guard", [("src/gpu/engine_impl.hpp", "      if (guard_stopped_now()) {\n        recover();", "      if (false) {\n        recover();", 1)]),
+ "54": ("GPU: translating walls move during the steps the list guard stopped", [("src/gpu/kernels.hpp", "  BIODEM_HD void operator()(std::uint32_t) const {\n    if (halted(halt)) return;\n    const double t = *clock + dt;", "  BIODEM_HD void operator()(std::uint32_t) const {\n    if (halt.settled && *halt.settled) return;\n    const double t = *clock + dt;", 1)]),
+ "55": ("GPU: the second buffer's copy does not move the list guard's flag to the first", [("src/gpu/kernels.hpp", "    if (i == 0 && halt.guard && flag_load(&halt.guard->over[1])) flag_raise(&halt.guard->over[0]);\n", "", 1)]),
  "49": ("CPU: a sink removes a body whose position is infinite (regression tier)", [("src/sim/simulation_step.cpp", "    check_finite_bodies();  // (before a sink could take", "    // (before a sink could take", 1)]),
 }
 

@@ -617,13 +617,16 @@ class Engine final : public DeviceEngine {
   };
   std::vector<RunLaunched> runs_since_check_;
   std::uint64_t guard_halts_ = 0;
-  /// After a drift that raised the guard's flag (Motion::guard_halted): reads how many drifts the
-  /// device made (a wait), takes back the launched steps it did not make (the host's clock and
-  /// counts, `cur` of advance()), brings the motion into the first buffer if that drift wrote
-  /// the second, clears the flags, checks the motion of now (non-finite positions stop the run)
-  /// and builds the list at the positions of now, as the CPU engine's step does when a sphere has
-  /// passed half the skin. Returns the steps taken back.
-  std::uint64_t recover_from_guard();
+  /// After a drift that raised the guard's flag (Motion::guard_halted), in two parts (advance()
+  /// sets the host clock back between them): guard_take_back reads how many drifts the device
+  /// made (a wait), takes back the launched steps it did not make (the drift count, a kernel-set
+  /// timing under way, which restarts), brings the motion into the first buffer if that drift
+  /// wrote the second and clears the flags; returns the steps taken back. guard_rebuild checks
+  /// the motion of now (a non-finite position stops the run, at the time of that drift) and
+  /// builds the list at the positions of now, as the CPU engine's step does when a sphere has
+  /// passed half the skin.
+  std::uint64_t guard_take_back();
+  void guard_rebuild();
   /// Whether the list guard's flags are raised now (reads them: a wait); false without the guard.
   bool guard_stopped_now();
   /// The host's walls to the device (upload, sync_walls).
@@ -653,7 +656,7 @@ class Engine final : public DeviceEngine {
   /// move more than half the skin before the next check. It reads the motion that the steps
   /// before it queued on the device one step before their end (no wait).
   /// Returns false when the motion it read shows that the list guard stopped the device (the
-  /// caller then calls recover_from_guard; nothing else was done).
+  /// caller then calls guard_take_back and guard_rebuild; nothing else was done).
   bool check_list();
   SphereMotion motion_of_sphere() {
     return SphereMotion{sphere_arrays(), raw<std::uint32_t>(mirror_missing_), guard_on_ ? raw<StepFlags>(guard_) : nullptr};
@@ -1852,7 +1855,7 @@ inline void Engine::run_units(std::uint32_t units) {
       }
     }
     if (two_buffers && units % 2 == 1) {
-      // (not after a drift the list guard stopped at an earlier unit: recover_from_guard copies
+      // (not after a drift the list guard stopped at an earlier unit: guard_take_back copies
       // the buffer that drift wrote; after the last unit's, its flag moves to the first buffer)
       Halt h = halt();
       h.ignore = 3u;
@@ -1863,7 +1866,7 @@ inline void Engine::run_units(std::uint32_t units) {
     }
   };
   const bool entries = entries_ready();
-  runs_since_check_.push_back(RunLaunched{drifts_, units, two_buffers});
+  if (ns()) runs_since_check_.push_back(RunLaunched{drifts_, units, two_buffers});
   if (fused) fused_units_ += units;
   if (two_buffers) walk_kick_units_ += units;
   if (fused && single_spheres_ && entries && !fixed_sums_) summed_in_kick_ += units;
@@ -1979,14 +1982,15 @@ inline DeviceEngine::Advanced Engine::advance(std::uint64_t max_steps) {
   // The list guard stopped the device after a drift past half the skin (check_list, apply_sinks,
   // or the read after the last forces): the steps launched after it are taken back (the host
   // clock too), the list is built at the positions of that drift, and the steps go on from there.
-  bool checked = false;  // (recover_from_guard made the check of the step of now)
+  bool checked = false;  // (guard_rebuild made the check of the step of now)
   auto recover = [&] {
-    const std::uint64_t back = recover_from_guard();
+    const std::uint64_t back = guard_take_back();
     if (back >= cur) throw InternalError("internal: GPU engine: the list guard took back more steps than advance made");
     cur -= back;
     host_.set_step_count(step0);
     host_.set_time_s(t0);
     tick(cur);
+    guard_rebuild();
   };
   for (;;) {
     if (checked) {
@@ -2241,6 +2245,12 @@ inline bool Engine::check_list() {
     motion_queued_ = false;
     return false;
   }
+  // No flag, yet a sphere past half the skin (the guard's own test, set_motion; with a margin of
+  // 1e-12 for a squared distance that another kernel's contraction rounds otherwise): a drift
+  // that the guard did not see. Never expected; stops the run rather than going on with the list.
+  if (guard_on_ && m.guard_halted == 0.0 && !(m.disp2 <= 0.25 * skin_ * skin_ * (1.0 + 1e-12)))
+    throw InternalError("internal: GPU engine: a sphere moved past half the skin without the list guard's flag (t = " +
+                        std::to_string(host_.time_s()) + " s)");
   // Every drift before the one of now was within half the skin (or the motion would say so): the
   // runs of steps before the last can no longer hold the drift the guard stops at.
   if (runs_since_check_.size() > 1) runs_since_check_.erase(runs_since_check_.begin(), runs_since_check_.end() - 1);
@@ -2295,7 +2305,7 @@ inline bool Engine::check_list() {
   return true;
 }
 
-inline std::uint64_t Engine::recover_from_guard() {
+inline std::uint64_t Engine::guard_take_back() {
   std::vector<StepFlags> f;
   to_host(f, guard_);  // (a wait: the device has stopped, the launches after the drift do nothing)
   const std::uint64_t made = guard_base_ + f[0].drifts;
@@ -2324,6 +2334,14 @@ inline std::uint64_t Engine::recover_from_guard() {
   motion_queued_ = false;
   settle_queued_ = false;
   ++guard_halts_;
+  // A timing of the kernel sets under way timed steps the device did not make: it starts again
+  // (the steps since the last choice count only those made).
+  if (tuning_under_way()) restart_tuning(false);
+  else since_choice_ -= std::min(since_choice_, back);
+  return back;
+}
+
+inline void Engine::guard_rebuild() {
   // The positions of now got no forces: a sphere past half the skin there is what the new list
   // is for (forces_on_list_ 0); a non-finite one, or a pair missing from a row, stops the run.
   forces_on_list_ = 0;
@@ -2336,7 +2354,6 @@ inline std::uint64_t Engine::recover_from_guard() {
   steps_until_check_ = per_step > 0.0 ? static_cast<std::uint32_t>(std::clamp(
                                             std::floor(0.5 * skin_ / per_step), 1.0, static_cast<double>(check_every_)))
                                       : check_every_;
-  return back;
 }
 
 inline bool Engine::guard_stopped_now() {

@@ -487,6 +487,58 @@ TEST(GpuEngine, TranslatingWallsMoveAsOnCpu) {
   }
 }
 
+// The translating walls with list guard stops: the scene above with the skin at 0.1 um and the
+// overlapping pair of the guard tests 20 mm away along z, pushing apart while the plate moves
+// (from t = 0 here) and again later when the struck bead takes off; the halted steps neither move
+// the device clock nor the walls (MoveWalls reads the guard), so after each stop the walls are
+// where the CPU engine's are and both beads follow the CPU engine.
+TEST(GpuEngine, GuardStopsWithTranslatingWallsFollowCpu) {
+  for (int family = 0; family < 3; ++family)
+    for (const char* queued : {"1", "0"}) {
+      SCOPED_TRACE(std::string(family == 0 ? "default" : family == 1 ? "row walk" : "row walk with the body update") +
+                   ", BIODEM_GPU_QUEUED_CHECK=" + queued);
+      SimSetup su = bead_setup(0.5, 0.3);
+      su.gravity_m_s2 = {0, -9.81, 0};
+      sim::Simulation cpu = make_simulation(su), gs = make_simulation(su);
+      for (auto* s : {&cpu, &gs}) {
+        sim::WallSpec plate = plane_wall({-3.0e-3, 5.0e-3, 0.0}, {1, 0, 0});
+        plate.geometry.kind = walls::Kind::Rectangle;
+        plate.geometry.edge_u = {0, 1, 0};
+        plate.geometry.half_u_m = plate.geometry.half_v_m = 5e-3;
+        plate.translation_velocity_m_s = {1.0, 0.0, 0.0};
+        plate.move_start_s = 0.0;
+        plate.move_end_s = 1.2e-3;
+        s->add_wall(plate);
+        add_particle(*s, 0, {-1.5e-3, 5.0e-3, 0.0});  // struck by the plate at 0.5 ms
+        add_particle(*s, 0, {-0.85e-3, 0, 20e-3});    // the overlapping pair
+        add_particle(*s, 0, {0.85e-3, 0, 20e-3});
+        s->set_skin(1e-7);
+      }
+      auto eng = gpu_engine_checks(gs, queued);
+      eng->set_entry_forces(family == 0);
+      if (family == 2) eng->set_walk_kick(true);
+      eng->upload();
+      const std::uint64_t steps = 4000, run = 53;
+      for (std::uint64_t k = 0; k < steps; k += run) {
+        const std::uint64_t n = std::min(run, steps - k);
+        for (std::uint64_t q = 0; q < n; ++q) cpu.step();
+        ASSERT_EQ(eng->advance(n).steps, n);
+      }
+      eng->download(true);
+      std::printf("[measured] %s: %llu guard stops, plate x cpu %.9g gpu %.9g m\n", queued,
+                  static_cast<unsigned long long>(eng->guard_stops()), cpu.walls()[0].geometry.point_m.x,
+                  gs.walls()[0].geometry.point_m.x);
+      EXPECT_GT(eng->guard_stops(), 0u);
+      EXPECT_GT(cpu.bodies().velocity_m_s[0].x, 1.2) << "the plate struck the bead";
+      EXPECT_EQ(gs.walls()[0].geometry.point_m.x, cpu.walls()[0].geometry.point_m.x);
+      for (std::size_t b = 0; b < 3; ++b) {
+        const Vec3 vc = cpu.bodies().velocity_m_s[b], vg = gs.bodies().velocity_m_s[b];
+        EXPECT_LT(norm(vg - vc), 1e-12 * norm(vc)) << "body " << b;
+      }
+      EXPECT_LT(worst_position_gap(cpu, gs), 1e-15);
+    }
+}
+
 // Sinks (SPEC 10): two beads fall from rest, one over a plate, one beside it into a sink below.
 // The GPU engine removes the second at a list check after its centre crossed the sink plane
 // (the CPU engine: after the drift that took it there), so the bead on the plate is untouched
