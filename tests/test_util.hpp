@@ -42,6 +42,21 @@ inline std::string slurp(const std::string& path) {
 }
 inline std::string source_dir() { return BIODEM_SOURCE_DIR; }
 
+/// The common part of the small explicit test scenes: a bead material (E = 5 MPa, nu = 0.3,
+/// 2500 kg/m^3), its pair with itself (e = 0.5, mu = 0.3) and a sphere shape "bead" of the given
+/// diameter (as written in the case).
+inline std::string bead_material_pair_shape(const std::string& diameter_m) {
+  return "[[material]]\nname = \"bead\"\ndensity_kg_m3 = 2500.0\nyoung_pa = 5.0e6\npoisson = 0.3\n\n"
+         "[[pair]]\nmaterials = [\"bead\", \"bead\"]\nrestitution = 0.5\nsliding_friction = 0.3\n\n"
+         "[[shape]]\nname = \"bead\"\nkind = \"sphere\"\ndiameter_m = " +
+         diameter_m + "\n";
+}
+/// An explicit [[particle]] of that shape and material at `position_m` (TOML vector text), with
+/// `extra` lines (a velocity) after it.
+inline std::string bead_particle(const std::string& position_m, const std::string& extra = "") {
+  return "\n[[particle]]\nshape = \"bead\"\nmaterial = \"bead\"\nposition_m = " + position_m + "\n" + extra;
+}
+
 /// A fresh, empty directory under the build tree's test folder.
 /// The case file `source` with each (from, to) edit applied at its first occurrence (a from
 /// that is not there fails the test), written as `name` in the working directory; returns its

@@ -430,6 +430,20 @@ TEST(GpuEngine, SphereOutrunningTheListBeforeANewListFollowsCpu) {
 // phase), and lifts a bead resting on it against gravity. The GPU engine's walls follow the device clock
 // (MoveWalls): the beads' trajectories and the walls' final places are the CPU engine's, to
 // 1e-12 and exactly.
+namespace {
+/// A 10 mm square plate at x = -3 mm facing +x, moving at 1 m/s along +x from start_s to 1.2 ms.
+sim::WallSpec moving_plate(double start_s) {
+  sim::WallSpec plate = plane_wall({-3.0e-3, 5.0e-3, 0.0}, {1, 0, 0});
+  plate.geometry.kind = walls::Kind::Rectangle;
+  plate.geometry.edge_u = {0, 1, 0};
+  plate.geometry.half_u_m = plate.geometry.half_v_m = 5e-3;
+  plate.translation_velocity_m_s = {1.0, 0.0, 0.0};
+  plate.move_start_s = start_s;
+  plate.move_end_s = 1.2e-3;
+  return plate;
+}
+}  // namespace
+
 TEST(GpuEngine, TranslatingWallsMoveAsOnCpu) {
   for (bool entries : {true, false}) {
   SCOPED_TRACE(entries ? "per-contact kernels (wall-slot list)" : "row walk (every wall)");
@@ -437,14 +451,7 @@ TEST(GpuEngine, TranslatingWallsMoveAsOnCpu) {
   su.gravity_m_s2 = {0, -9.81, 0};
   sim::Simulation cpu = make_simulation(su), gs = make_simulation(su);
   for (auto* s : {&cpu, &gs}) {
-    sim::WallSpec plate = plane_wall({-3.0e-3, 5.0e-3, 0.0}, {1, 0, 0});
-    plate.geometry.kind = walls::Kind::Rectangle;
-    plate.geometry.edge_u = {0, 1, 0};
-    plate.geometry.half_u_m = plate.geometry.half_v_m = 5e-3;
-    plate.translation_velocity_m_s = {1.0, 0.0, 0.0};
-    plate.move_start_s = 2e-4;
-    plate.move_end_s = 1.2e-3;
-    s->add_wall(plate);
+    s->add_wall(moving_plate(2e-4));
     sim::WallSpec disc = plane_wall({0.0, -10e-3, 0.0}, {0, 1, 0});
     disc.geometry.kind = walls::Kind::Disc;
     disc.geometry.radius_m = 4e-3;
@@ -501,14 +508,7 @@ TEST(GpuEngine, GuardStopsWithTranslatingWallsFollowCpu) {
       su.gravity_m_s2 = {0, -9.81, 0};
       sim::Simulation cpu = make_simulation(su), gs = make_simulation(su);
       for (auto* s : {&cpu, &gs}) {
-        sim::WallSpec plate = plane_wall({-3.0e-3, 5.0e-3, 0.0}, {1, 0, 0});
-        plate.geometry.kind = walls::Kind::Rectangle;
-        plate.geometry.edge_u = {0, 1, 0};
-        plate.geometry.half_u_m = plate.geometry.half_v_m = 5e-3;
-        plate.translation_velocity_m_s = {1.0, 0.0, 0.0};
-        plate.move_start_s = 0.0;
-        plate.move_end_s = 1.2e-3;
-        s->add_wall(plate);
+        s->add_wall(moving_plate(0.0));
         add_particle(*s, 0, {-1.5e-3, 5.0e-3, 0.0});  // struck by the plate at 0.5 ms
         add_particle(*s, 0, {-0.85e-3, 0, 20e-3});    // the overlapping pair
         add_particle(*s, 0, {0.85e-3, 0, 20e-3});

@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* kScene = R"([run]
+const std::string kScene = R"([run]
 dt_s = 2.0e-7
 gravity_m_s2 = [0.0, 0.0, 0.0]
 skin_m = 1.0e-7
@@ -28,37 +28,8 @@ allow_initial_overlap = true
 bounds_min_m = [-0.01, -0.01, -0.01]
 bounds_max_m = [0.01, 0.01, 0.01]
 
-[[material]]
-name = "bead"
-density_kg_m3 = 2500.0
-young_pa = 5.0e6
-poisson = 0.3
-
-[[pair]]
-materials = ["bead", "bead"]
-restitution = 0.5
-sliding_friction = 0.3
-
-[[shape]]
-name = "bead"
-kind = "sphere"
-diameter_m = 2.0e-3
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [-0.00085, 0.0, 0.0]
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [0.00085, 0.0, 0.0]
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [0.00285012, 0.0, 0.0]
-
+)" + bead_material_pair_shape("2.0e-3") + bead_particle("[-0.00085, 0.0, 0.0]") +
+                          bead_particle("[0.00085, 0.0, 0.0]") + bead_particle("[0.00285012, 0.0, 0.0]") + R"(
 [[phase]]
 name = "push"
 duration_s = 0.0004

@@ -28,44 +28,14 @@ dt_s = 1.0e-5
 bounds_min_m = [-0.01, -0.002, -0.01]
 bounds_max_m = [0.01, 0.02, 0.01]
 
-[[material]]
-name = "bead"
-density_kg_m3 = 2500.0
-young_pa = 5.0e6
-poisson = 0.3
-
-[[pair]]
-materials = ["bead", "bead"]
-restitution = 0.5
-sliding_friction = 0.3
-
-[[shape]]
-name = "bead"
-kind = "sphere"
-diameter_m = 1.0e-3
-
+)" + bead_material_pair_shape("1.0e-3") + R"(
 [[wall]]
 kind = "plane"
 point_m = [0.0, 0.0, 0.0]
 normal = [0.0, 1.0, 0.0]
 material = "bead"
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [0.0, 0.0005, 0.0]
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [0.003, 0.0005, 0.0]
-
-[[particle]]
-shape = "bead"
-material = "bead"
-position_m = [-0.003, 0.004, 0.0]
-velocity_m_s = [-2.0, 0.0, 0.0]
-
+)" + bead_particle("[0.0, 0.0005, 0.0]") + bead_particle("[0.003, 0.0005, 0.0]") +
+         bead_particle("[-0.003, 0.004, 0.0]", "velocity_m_s = [-2.0, 0.0, 0.0]\n") + R"(
 [[phase]]
 name = "fly"
 duration_s = 0.02
