@@ -627,6 +627,14 @@ class Engine final : public DeviceEngine {
   /// passed half the skin.
   std::uint64_t guard_take_back();
   void guard_rebuild();
+  /// Steps to the next list check: as many as `room` (of half the skin) allows at `per_step` (the
+  /// check's bound on a sphere's move per step), at least 1, at most check_every_ (also when
+  /// nothing moves).
+  std::uint32_t steps_to_next_check(double room, double per_step) const {
+    return per_step > 0.0 ? static_cast<std::uint32_t>(
+                                std::clamp(std::floor(room / per_step), 1.0, static_cast<double>(check_every_)))
+                          : check_every_;
+  }
   /// Whether the list guard's flags are raised now (reads them: a wait); false without the guard.
   bool guard_stopped_now();
   /// The host's walls to the device (upload, sync_walls).
@@ -2299,9 +2307,7 @@ inline bool Engine::check_list() {
       ++profile_.builds;
     }
   }
-  if (per_step > 0.0)
-    steps_until_check_ = static_cast<std::uint32_t>(
-        std::clamp(std::floor(room / per_step), 1.0, static_cast<double>(check_every_)));
+  steps_until_check_ = steps_to_next_check(room, per_step);
   return true;
 }
 
@@ -2350,10 +2356,7 @@ inline void Engine::guard_rebuild() {
   check_lost(m);
   build_list(&m.box);
   forces_on_list_ = 0;
-  const double per_step = 2.0 * dt_ * std::sqrt(m.speed2);
-  steps_until_check_ = per_step > 0.0 ? static_cast<std::uint32_t>(std::clamp(
-                                            std::floor(0.5 * skin_ / per_step), 1.0, static_cast<double>(check_every_)))
-                                      : check_every_;
+  steps_until_check_ = steps_to_next_check(0.5 * skin_, 2.0 * dt_ * std::sqrt(m.speed2));
 }
 
 inline bool Engine::guard_stopped_now() {

@@ -452,9 +452,8 @@ struct Motion {
   double radial2 = 0.0;  // the largest x^2 + y^2 of a sphere centre (the drum's axis is z through the origin)
   // The list guard (StepFlags), read with the motion: 2 when a kernel stopped at a raised flag
   // (the device has stopped after a drift past half the skin), 1 when a drift raised one and no
-  // kernel has read it yet (the last drift before the motion), 0 when none; and the drifts made
-  // since the upload.
-  double guard_halted = 0.0, drifts = 0.0;
+  // kernel has read it yet (the last drift before the motion), 0 when none.
+  double guard_halted = 0.0;
 };
 struct SphereMotion {
   SphereArrays s;
@@ -463,13 +462,10 @@ struct SphereMotion {
   BIODEM_HD Motion operator()(std::uint32_t i) const {
     const Vec3 x = s.position[i];
     const double d2 = norm2(x - s.built_at[i]);
-    double halted_by_guard = 0.0, drifts = 0.0;
-    if (i == 0 && guard) {
-      halted_by_guard = guard->stop ? 2.0 : guard->over[0] || guard->over[1] ? 1.0 : 0.0;
-      drifts = static_cast<double>(guard->drifts);
-    }
+    double halted_by_guard = 0.0;
+    if (i == 0 && guard) halted_by_guard = guard->stop ? 2.0 : guard->over[0] || guard->over[1] ? 1.0 : 0.0;
     return Motion{d2 == d2 ? d2 : 1e300, norm2(s.velocity[i]), Box{x, x}, i == 0 && *missing ? 1.0 : 0.0,
-                  x.x * x.x + x.y * x.y, halted_by_guard, drifts};
+                  x.x * x.x + x.y * x.y, halted_by_guard};
   }
 };
 struct MotionMax {
@@ -477,8 +473,7 @@ struct MotionMax {
     return Motion{a.disp2 > b.disp2 ? a.disp2 : b.disp2, a.speed2 > b.speed2 ? a.speed2 : b.speed2,
                   BoxUnion{}(a.box, b.box), a.unmirrored > b.unmirrored ? a.unmirrored : b.unmirrored,
                   a.radial2 > b.radial2 ? a.radial2 : b.radial2,
-                  a.guard_halted > b.guard_halted ? a.guard_halted : b.guard_halted,
-                  a.drifts > b.drifts ? a.drifts : b.drifts};
+                  a.guard_halted > b.guard_halted ? a.guard_halted : b.guard_halted};
   }
 };
 
