@@ -329,6 +329,19 @@ TEST(GpuEngine, WithoutTheGuardASphereOutrunningTheListCheckStopsTheRun) {
     }
     EXPECT_EQ(eng->guard_stops(), 0u);
   }
+  {  // a value other than 0 or 1: one line naming the switch
+    SimSetup su = bead_setup(0.5, 0.3);
+    sim::Simulation gs = make_simulation(su);
+    ::setenv("BIODEM_GPU_LIST_GUARD", "off", 1);
+    try {
+      gpu_engine(gs);
+      ADD_FAILURE() << "BIODEM_GPU_LIST_GUARD=off must be refused";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("BIODEM_GPU_LIST_GUARD = 'off': expected 0 or 1"), std::string::npos)
+          << e.what();
+    }
+    ::unsetenv("BIODEM_GPU_LIST_GUARD");
+  }
   // And a new list made between two checks at the positions of now must not hide it: a removal's
   // upload (a third bead inside a sink, removal test at step 10), a download with the history
   // after 10 steps (a checkpoint, or the end of a run), and a download without it then an upload.
